@@ -1,0 +1,77 @@
+"""The :class:`Arm`: an arm's kinematic model plus the solvers that work on it."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy.typing as npt
+
+from armctl.config import load_spec
+from armctl.config.schema import ArmSpec
+from armctl.kinematics.model import KinematicModel
+
+if TYPE_CHECKING:
+    from armctl.ik import GoalLike, IKOptions, IKResult
+
+__all__ = ["Arm", "load_arm"]
+
+
+class Arm(KinematicModel):
+    """An arm model: the kinematic tree, its limits and named frames.
+
+    Build one with :func:`load_arm`. Everything is in SI units: joint values in [rad] (revolute,
+    continuous) or [m] (prismatic), poses as ``(4, 4)`` transforms in [m].
+    """
+
+    @classmethod
+    def from_spec(cls, spec: ArmSpec) -> Arm:
+        """An arm from an already validated description."""
+        return cls(spec)
+
+    def ik(
+        self,
+        goal: GoalLike,
+        q0: npt.ArrayLike | None = None,
+        solver: str = "auto",
+        *,
+        options: IKOptions | None = None,
+        constraints: Sequence[Any] = (),
+    ) -> IKResult:
+        """Inverse kinematics: joint values that bring frames to goals.
+
+        Args:
+            goal: A ``(4, 4)`` tool pose, a goal object (:class:`armctl.ik.PositionGoal`,
+                ``OrientationGoal``, ``DirectionGoal``, ``PoseGoal``), or a sequence of them for
+                several frames at once.
+            q0: Starting joint vector [rad]/[m]; the middle of the joint ranges when ``None``.
+            solver: Solver name, see :func:`armctl.ik.available_solvers`.
+            options: Iteration and time budgets, restarts and RNG seed.
+            constraints: Extra constraints for solvers that accept them (``"nlp"``).
+
+        Returns:
+            The result. ``result.success`` is True only if every goal is met within tolerance
+            and ``result.q`` is inside the joint limits; otherwise ``result.q`` is the closest
+            configuration found and ``result.status`` says why.
+        """
+        from armctl.ik import solve
+
+        return solve(self, goal, q0, solver, options=options, constraints=constraints)
+
+
+def load_arm(path: str | Path, tip: str | None = None) -> Arm:
+    """Load an arm from armctl YAML, a URDF file, or the name of a bundled arm.
+
+    Args:
+        path: A ``.yaml``/``.urdf`` path, or a bundled name such as ``"so101"``.
+        tip: URDF only: keep the chain from the root to this link and use it as the tool frame.
+
+    Returns:
+        The arm.
+
+    Raises:
+        ConfigError: If the file is missing or invalid; the message names the file, the key path
+            and line, what was found and what is expected.
+    """
+    return Arm(load_spec(path, tip))

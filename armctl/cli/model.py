@@ -1,0 +1,200 @@
+"""Commands about the arm model: ``arms``, ``info``, ``fk``, ``convert``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from armctl.cli._common import add_config, add_json, emit, fmt, load_arm_arg, parse_angles, table
+
+ORDER = 10
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the model commands."""
+    p = sub.add_parser("arms", help="list the bundled arm configs")
+    add_json(p)
+    p.set_defaults(func=cmd_arms)
+
+    p = sub.add_parser("info", help="show an arm's joints, limits, frames and tree")
+    add_config(p)
+    p.add_argument("--tip", help="URDF only: keep the chain to this link")
+    p.add_argument("--deg", action="store_true", help="show angles in degrees")
+    add_json(p)
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("fk", help="forward kinematics: the pose of a frame for joint values")
+    add_config(p)
+    p.add_argument("q", nargs="+", metavar="Q", help="joint values, radians/metres (see --deg)")
+    p.add_argument("--frame", help="frame name (default: the tool frame)")
+    p.add_argument("--deg", action="store_true", help="rotary joint values in degrees")
+    p.add_argument("--tip", help="URDF only: keep the chain to this link")
+    add_json(p)
+    p.set_defaults(func=cmd_fk)
+
+    p = sub.add_parser("convert", help="convert a URDF to armctl YAML")
+    p.add_argument("urdf", metavar="URDF", help="the .urdf file")
+    p.add_argument("-o", "--output", required=True, help="the YAML file to write")
+    p.add_argument("--tip", help="keep only the chain to this link (it becomes the tool)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    add_json(p)
+    p.set_defaults(func=cmd_convert)
+
+
+def cmd_arms(args: argparse.Namespace) -> int:
+    """List the bundled arm configs."""
+    from armctl.config import bundled_configs, load_spec
+
+    rows, data = [], []
+    for name, path in bundled_configs().items():
+        spec = load_spec(path)
+        dof = len(spec.actuated_joints)
+        port = spec.bus.port if spec.bus else "-"
+        rows.append([name, str(dof), spec.tool, port, spec.description])
+        data.append({"name": name, "path": str(path), "dof": dof, "tool": spec.tool,
+                     "port": port, "description": spec.description})
+    emit(args, {"arms": data}, table(["name", "dof", "tool", "port", "description"], rows, [1]))
+    return 0
+
+
+def _angle_unit(is_prismatic: bool, deg: bool) -> tuple[str, float]:
+    if is_prismatic:
+        return "m", 1.0
+    return ("deg", 180.0 / math.pi) if deg else ("rad", 1.0)
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    """Show joints, limits, frames and the tree."""
+    from armctl.config.schema import JointType
+
+    arm = load_arm_arg(args)
+    spec = arm.spec
+    rows = []
+    joints: list[dict[str, Any]] = []
+    for i, name in enumerate(arm.joint_names):
+        js = spec.joint(name)
+        unit, k = _angle_unit(js.type is JointType.PRISMATIC, args.deg)
+        vel = arm.velocity_limits[i]
+        rows.append([str(i), name, js.type.value, js.role.value, f"{fmt(arm.lower[i] * k, 3)}",
+                     f"{fmt(arm.upper[i] * k, 3)}", unit,
+                     "-" if math.isnan(vel) else f"{fmt(vel * k, 2)} {unit}/s",
+                     " ".join(fmt(a, 3) for a in js.axis)])
+        joints.append({"index": i, "name": name, "type": js.type.value, "role": js.role.value,
+                       "parent": js.parent, "child": js.child, "axis": list(js.axis),
+                       "lower": arm.lower[i], "upper": arm.upper[i],
+                       "velocity": arm.velocity_limits[i],
+                       "acceleration": arm.acceleration_limits[i], "jerk": arm.jerk_limits[i]})
+    lines = [f"arm {spec.name!r}: {arm.dof} DOF, base {spec.base!r}, tool {spec.tool!r}"]
+    if spec.description:
+        lines.append(spec.description)
+    if spec.source:
+        lines.append(f"source: {spec.source}")
+    if spec.file:
+        lines.append(f"file: {spec.file}")
+    lines.append("")
+    lines.append(table(["#", "joint", "type", "role", "lower", "upper", "unit", "velocity", "axis"],
+                       rows, right=[0, 4, 5]))
+    lines.append("")
+    lines.append("end effectors: " + ", ".join(spec.end_effectors))
+    if spec.poses:
+        lines.append("named poses: " + ", ".join(spec.poses))
+    lines.append("")
+    lines.append("tree:")
+    lines += _tree_lines(spec)
+    data: dict[str, Any] = {
+        "name": spec.name, "dof": arm.dof, "base": spec.base, "tool": spec.tool,
+        "end_effectors": list(spec.end_effectors), "joints": joints,
+        "frames": list(arm.frame_names), "poses": spec.poses, "source": spec.source,
+        "file": str(spec.file) if spec.file else None,
+    }
+    if spec.bus is not None:
+        bus = spec.bus
+        data["bus"] = {"port": bus.port, "protocol": bus.protocol.value, "baudrate": bus.baudrate,
+                       "servos": {s.joint: {"id": s.id, "model": s.model} for s in bus.servos}}
+        lines.append("")
+        lines.append(f"bus: {bus.protocol.value} on {bus.port} at {bus.baudrate} bit/s, "
+                     f"{len(bus.servos)} servos")
+    emit(args, data, "\n".join(lines))
+    return 0
+
+
+def _tree_lines(spec: Any) -> list[str]:
+    children: dict[str, list[Any]] = {}
+    for j in spec.joints:
+        children.setdefault(j.parent, []).append(j)
+    frames: dict[str, list[str]] = {}
+    for f in spec.frames:
+        frames.setdefault(f.parent, []).append(f.name)
+    out: list[str] = []
+
+    def walk(link: str, prefix: str) -> None:
+        items: list[tuple[str, Any]] = [("frame", f) for f in frames.get(link, [])]
+        items += [("joint", j) for j in children.get(link, [])]
+        for k, (kind, item) in enumerate(items):
+            last = k == len(items) - 1
+            branch = "└─ " if last else "├─ "
+            if kind == "frame":
+                out.append(f"{prefix}{branch}[frame] {item}")
+            else:
+                out.append(f"{prefix}{branch}{item.name} ({item.type.value}) -> {item.child}")
+                walk(item.child, prefix + ("   " if last else "│  "))
+
+    out.append(spec.base)
+    walk(spec.base, "")
+    return out
+
+
+def cmd_fk(args: argparse.Namespace) -> int:
+    """Print the pose of a frame."""
+    from armctl.spatial import matrix_to_quat, matrix_to_rpy
+
+    arm = load_arm_arg(args)
+    q = parse_angles(args.q, args.deg, arm)
+    frame = args.frame or arm.tool
+    pose = arm.fk(q, frame)
+    rpy = matrix_to_rpy(pose[:3, :3])
+    quat = matrix_to_quat(pose[:3, :3])
+    inside = arm.within_limits(q)
+    lines = [
+        f"frame {frame!r} of arm {arm.name!r}",
+        f"position [m]      x {fmt(pose[0, 3], 6)}  y {fmt(pose[1, 3], 6)}  z {fmt(pose[2, 3], 6)}",
+        f"rpy [rad]         {'  '.join(fmt(a, 6) for a in rpy)}",
+        f"rpy [deg]         {'  '.join(fmt(math.degrees(a), 3) for a in rpy)}",
+        f"quat [w x y z]    {'  '.join(fmt(a, 6) for a in quat)}",
+        "matrix:",
+    ]
+    lines += ["  " + "  ".join(f"{v:10.6f}" for v in row) for row in pose]
+    if not inside:
+        lines.append("note: these joint values are outside the joint limits")
+    emit(args, {"frame": frame, "q": q, "position": pose[:3, 3], "rpy": rpy, "quaternion": quat,
+                "matrix": pose, "within_limits": inside}, "\n".join(lines))
+    return 0
+
+
+def cmd_convert(args: argparse.Namespace) -> int:
+    """Convert a URDF to armctl YAML."""
+    from armctl.config.urdf import load_urdf
+    from armctl.config.writer import dump_arm_yaml
+    from armctl.errors import ConfigError, KeyPath
+
+    out = Path(args.output)
+    if out.exists() and not args.force:
+        raise ConfigError("the output file exists already", KeyPath(out),
+                          "choose another name or pass --force to overwrite it")
+    imported = load_urdf(args.urdf, args.tip)
+    header = f"Converted from {Path(args.urdf).name} by armctl convert."
+    for note in imported.notes:
+        header += f"\nNote: {note}"
+    text = dump_arm_yaml(imported.spec, out, header)
+    tmp = out.with_name(out.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(out)
+    spec = imported.spec
+    emit(args, {"output": str(out), "dof": len(spec.actuated_joints), "tool": spec.tool,
+                "notes": list(imported.notes)},
+         f"wrote {out} ({len(spec.actuated_joints)} DOF, tool {spec.tool!r})"
+         + "".join(f"\nnote: {n}" for n in imported.notes))
+    return 0
+

@@ -1,0 +1,267 @@
+"""The arm description as immutable data: links, joints, frames, geometry, named poses.
+
+This is what an arm YAML file or a URDF becomes after validation (see ``docs/config.md``). It is
+pure data: the compiled kinematic tree that computes poses lives in :mod:`armctl.kinematics`.
+Multi-DOF joints and Denavit-Hartenberg parameters of the YAML format are already expanded here
+into 1-DOF joints with an origin and an axis.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.errors import KeyPath
+from armctl.spatial import make_transform, rpy_to_matrix
+
+if TYPE_CHECKING:
+    from armctl.config.bus import BusSpec
+    from armctl.config.motion import MotionSpec
+
+__all__ = [
+    "ArmSpec",
+    "Box",
+    "Capsule",
+    "Cylinder",
+    "FrameSpec",
+    "Geometry",
+    "JointRole",
+    "JointSpec",
+    "JointType",
+    "Limits",
+    "LinkSpec",
+    "Mesh",
+    "Origin",
+    "Sphere",
+]
+
+
+class JointType(Enum):
+    """Kinds of 1-DOF joints (multi-DOF joints are expanded into revolute ones)."""
+
+    REVOLUTE = "revolute"
+    CONTINUOUS = "continuous"
+    PRISMATIC = "prismatic"
+    FIXED = "fixed"
+
+    @property
+    def actuated(self) -> bool:
+        """Whether the joint has a degree of freedom."""
+        return self is not JointType.FIXED
+
+
+class JointRole(Enum):
+    """What a joint is for: moving the arm, or opening and closing a gripper."""
+
+    ARM = "arm"
+    GRIPPER = "gripper"
+
+
+@dataclass(frozen=True)
+class Origin:
+    """A fixed placement: translation then URDF roll-pitch-yaw rotation.
+
+    Attributes:
+        xyz: Translation in [m].
+        rpy: Roll, pitch, yaw in [rad].
+    """
+
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def matrix(self) -> npt.NDArray[np.float64]:
+        """The ``(4, 4)`` homogeneous transform."""
+        return make_transform(rpy_to_matrix(self.rpy), self.xyz)
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Joint limits in SI units; position limits are infinite for continuous joints.
+
+    Attributes:
+        lower: Lowest position in [rad] or [m].
+        upper: Highest position in [rad] or [m].
+        velocity: Highest speed in [rad/s] or [m/s], ``None`` when unknown.
+        acceleration: Highest acceleration in [rad/s^2] or [m/s^2], ``None`` when unknown.
+        jerk: Highest jerk in [rad/s^3] or [m/s^3], ``None`` when unknown.
+        effort: Highest torque [N m] or force [N], ``None`` when unknown.
+    """
+
+    lower: float = -math.inf
+    upper: float = math.inf
+    velocity: float | None = None
+    acceleration: float | None = None
+    jerk: float | None = None
+    effort: float | None = None
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """One 1-DOF (or fixed) joint between a parent and a child link.
+
+    Attributes:
+        name: Unique joint name.
+        type: Joint type.
+        parent: Parent link name.
+        child: Child link name.
+        origin: Placement of the joint frame in the parent link frame.
+        axis: Unit axis in the joint frame (rotation axis, or direction of travel).
+        limits: Position, velocity, acceleration and jerk limits.
+        role: Arm joint or gripper joint.
+        where: Where the joint was defined, for error messages.
+    """
+
+    name: str
+    type: JointType
+    parent: str
+    child: str
+    origin: Origin = Origin()
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    limits: Limits = Limits()
+    role: JointRole = JointRole.ARM
+    where: KeyPath = field(default=KeyPath(), compare=False)
+
+
+@dataclass(frozen=True)
+class FrameSpec:
+    """A named frame rigidly attached to a link, such as a tool centre point.
+
+    Attributes:
+        name: Unique frame name (distinct from every link name).
+        parent: The link it is attached to.
+        origin: Its placement in the link frame.
+        where: Where the frame was defined, for error messages.
+    """
+
+    name: str
+    parent: str
+    origin: Origin = Origin()
+    where: KeyPath = field(default=KeyPath(), compare=False)
+
+
+@dataclass(frozen=True)
+class Box:
+    """A box centred on its origin. ``size``: edge lengths along x, y, z in [m]."""
+
+    size: tuple[float, float, float]
+    origin: Origin = Origin()
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """A cylinder along its local z axis, centred on its origin; sizes in [m]."""
+
+    radius: float
+    length: float
+    origin: Origin = Origin()
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A sphere centred on its origin; radius in [m]."""
+
+    radius: float
+    origin: Origin = Origin()
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """A cylinder with hemispherical ends along local z, centred on its origin; sizes in [m].
+
+    ``length`` is the distance between the two hemisphere centres.
+    """
+
+    radius: float
+    length: float
+    origin: Origin = Origin()
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A triangle mesh file (STL, OBJ, DAE) scaled per axis and placed by its origin."""
+
+    path: Path
+    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    origin: Origin = Origin()
+
+
+Geometry = Box | Cylinder | Sphere | Capsule | Mesh
+
+
+@dataclass(frozen=True)
+class LinkSpec:
+    """A rigid link: its name and the geometry bound to it (the seed's rigid binding).
+
+    Attributes:
+        name: Unique link name.
+        visual: Shapes drawn for the link, in the link frame.
+        collision: Shapes used for collision checks; the visual shapes when empty.
+    """
+
+    name: str
+    visual: tuple[Geometry, ...] = ()
+    collision: tuple[Geometry, ...] = ()
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    """A validated arm description: a tree of links joined by 1-DOF joints.
+
+    Attributes:
+        name: Arm name.
+        base: The root link.
+        links: Every link (the base first).
+        joints: Every joint, parents before children.
+        frames: Extra named frames (tool frames) attached to links.
+        tool: The default frame for FK and IK.
+        end_effectors: Frames that are end effectors (the tool first).
+        poses: Named joint configurations (``home``, ``park``, ...) by joint name, [rad] or [m].
+        description: Free text.
+        source: Where the kinematic parameters come from.
+        bus: The servo bus section, when the arm has one.
+        motion: Motion defaults, when given.
+        file: The file the description was read from.
+    """
+
+    name: str
+    base: str
+    links: tuple[LinkSpec, ...]
+    joints: tuple[JointSpec, ...]
+    frames: tuple[FrameSpec, ...] = ()
+    tool: str = ""
+    end_effectors: tuple[str, ...] = ()
+    poses: dict[str, dict[str, float]] = field(default_factory=dict)
+    description: str = ""
+    source: str = ""
+    bus: BusSpec | None = None
+    motion: MotionSpec | None = None
+    file: Path | None = None
+
+    def link(self, name: str) -> LinkSpec:
+        """The link called ``name``."""
+        from armctl.errors import UnknownNameError
+
+        for link in self.links:
+            if link.name == name:
+                return link
+        raise UnknownNameError("link", name, [lk.name for lk in self.links], f"arm {self.name!r}")
+
+    def joint(self, name: str) -> JointSpec:
+        """The joint called ``name``."""
+        from armctl.errors import UnknownNameError
+
+        for joint in self.joints:
+            if joint.name == name:
+                return joint
+        raise UnknownNameError("joint", name, [j.name for j in self.joints], f"arm {self.name!r}")
+
+    @property
+    def actuated_joints(self) -> tuple[JointSpec, ...]:
+        """The joints with a degree of freedom, in the order of the joint vector."""
+        return tuple(j for j in self.joints if j.type.actuated)

@@ -1,0 +1,194 @@
+"""Writes an :class:`~armctl.config.schema.ArmSpec` as armctl YAML (used by ``armctl convert``).
+
+:func:`merge_fixed` first folds every fixed joint into its moving parent: the child link becomes a
+named frame, its shapes move to the parent link, and joints below it are re-anchored. Loading the
+written file gives the same kinematics for every frame name of the original.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from armctl.config.arm_yaml import SCHEMA_VERSION, origin_from_matrix
+from armctl.config.schema import (
+    ArmSpec,
+    Box,
+    Capsule,
+    Cylinder,
+    FrameSpec,
+    Geometry,
+    JointSpec,
+    JointType,
+    LinkSpec,
+    Mesh,
+    Origin,
+    Sphere,
+)
+
+__all__ = ["dump_arm_yaml", "merge_fixed"]
+
+
+def merge_fixed(spec: ArmSpec) -> ArmSpec:
+    """Fold fixed joints into their moving parents (see the module docstring).
+
+    Args:
+        spec: An arm description that may contain fixed joints.
+
+    Returns:
+        An equivalent description without fixed joints.
+    """
+    parent_joint = {j.child: j for j in spec.joints}
+    anchor: dict[str, tuple[str, np.ndarray]] = {spec.base: (spec.base, np.eye(4))}
+    for j in spec.joints:  # parents first
+        if j.type is JointType.FIXED:
+            a, t = anchor[j.parent]
+            anchor[j.child] = (a, t @ j.origin.matrix())
+        else:
+            anchor[j.child] = (j.child, np.eye(4))
+    joints = []
+    for j in spec.joints:
+        if j.type is JointType.FIXED:
+            continue
+        a, t = anchor[j.parent]
+        origin = j.origin if a == j.parent else origin_from_matrix(t @ j.origin.matrix())
+        joints.append(replace(j, parent=a, origin=origin))
+    frames = [FrameSpec(link, a, origin_from_matrix(t))
+              for link, (a, t) in anchor.items() if a != link]
+    for f in spec.frames:
+        a, t = anchor[f.parent]
+        frames.append(replace(f, parent=a, origin=origin_from_matrix(t @ f.origin.matrix())))
+    shapes: dict[str, tuple[list[Geometry], list[Geometry]]] = {}
+    for link in spec.links:
+        a, t = anchor[link.name]
+        vis, col = shapes.setdefault(a, ([], []))
+        vis.extend(_moved(g, t) for g in link.visual)
+        col.extend(_moved(g, t) for g in link.collision)
+    links = tuple(LinkSpec(lk.name, tuple(shapes[lk.name][0]), tuple(shapes[lk.name][1]))
+                  for lk in spec.links if lk.name in shapes)
+    del parent_joint
+    return replace(spec, joints=tuple(joints), frames=tuple(frames), links=links)
+
+
+def _moved(g: Geometry, t: np.ndarray) -> Geometry:
+    if np.allclose(t, np.eye(4), atol=0.0):
+        return g
+    return replace(g, origin=origin_from_matrix(t @ g.origin.matrix()))
+
+
+def _num(x: float) -> str:
+    if math.isinf(x):
+        return ".inf" if x > 0 else "-.inf"
+    if x == 0.0:
+        return "0"
+    return repr(float(x))
+
+
+def _vec(v: tuple[float, ...]) -> str:
+    return "[" + ", ".join(_num(x) for x in v) + "]"
+
+
+def _origin(o: Origin) -> str | None:
+    parts = []
+    if any(o.xyz):
+        parts.append(f"xyz: {_vec(o.xyz)}")
+    if any(o.rpy):
+        parts.append(f"rpy: {_vec(o.rpy)}")
+    return "{" + ", ".join(parts) + "}" if parts else None
+
+
+def _shape(g: Geometry, rel: Path | None) -> str:
+    if isinstance(g, Box):
+        body = f"shape: box, size: {_vec(g.size)}"
+    elif isinstance(g, Sphere):
+        body = f"shape: sphere, radius: {_num(g.radius)}"
+    elif isinstance(g, (Cylinder, Capsule)):
+        kind = "cylinder" if isinstance(g, Cylinder) else "capsule"
+        body = f"shape: {kind}, radius: {_num(g.radius)}, length: {_num(g.length)}"
+    else:
+        assert isinstance(g, Mesh)  # mypy
+        path = g.path
+        if rel is not None:
+            try:
+                path = g.path.resolve().relative_to(rel.resolve())
+            except ValueError:
+                path = g.path
+        body = f"shape: mesh, path: {str(path)!r}"
+        if g.scale != (1.0, 1.0, 1.0):
+            body += f", scale: {_vec(g.scale)}"
+    origin = _origin(g.origin)
+    if origin:
+        body += f", origin: {origin}"
+    return "{" + body + "}"
+
+
+def _joint(j: JointSpec) -> list[str]:
+    lines = [f"  - name: {j.name}", f"    type: {j.type.value}", f"    parent: {j.parent}",
+             f"    child: {j.child}"]
+    origin = _origin(j.origin)
+    if origin:
+        lines.append(f"    origin: {origin}")
+    lines.append(f"    axis: {_vec(j.axis)}")
+    lim = j.limits
+    parts = []
+    if j.type in (JointType.REVOLUTE, JointType.PRISMATIC):
+        parts += [f"lower: {_num(lim.lower)}", f"upper: {_num(lim.upper)}"]
+    for key in ("velocity", "acceleration", "jerk", "effort"):
+        value = getattr(lim, key)
+        if value is not None:
+            parts.append(f"{key}: {_num(value)}")
+    if parts:
+        lines.append("    limits: {" + ", ".join(parts) + "}")
+    if j.role.value != "arm":
+        lines.append(f"    role: {j.role.value}")
+    return lines
+
+
+def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "") -> str:
+    """The arm description as armctl YAML text.
+
+    Args:
+        spec: The description (fixed joints are merged first).
+        out_file: Where the text will be written; mesh paths are made relative to its folder.
+        header: Comment lines to put at the top (without ``#``).
+
+    Returns:
+        YAML text that :func:`~armctl.config.arm_yaml.load_arm_yaml` reads back.
+    """
+    spec = merge_fixed(spec)
+    rel = out_file.parent if out_file is not None else None
+    lines = [f"# {h}" if h else "#" for h in header.splitlines()]
+    lines += [f"armctl: {SCHEMA_VERSION}", f"name: {spec.name}"]
+    if spec.description:
+        lines.append(f"description: {spec.description!r}")
+    if spec.source:
+        lines.append(f"source: {spec.source!r}")
+    lines.append(f"base: {spec.base}")
+    lines.append(f"tool: {spec.tool}")
+    if len(spec.end_effectors) > 1:
+        lines.append(f"end_effectors: [{', '.join(spec.end_effectors)}]")
+    lines.append("joints:")
+    for j in spec.joints:
+        lines += _joint(j)
+    if spec.frames:
+        lines.append("frames:")
+        for f in spec.frames:
+            origin = _origin(f.origin) or "{}"
+            lines.append(f"  - {{name: {f.name}, parent: {f.parent}, origin: {origin}}}")
+    shaped = [lk for lk in spec.links if lk.visual or lk.collision]
+    if shaped:
+        lines.append("links:")
+        for lk in shaped:
+            lines.append(f"  - name: {lk.name}")
+            for key, shapes in (("visual", lk.visual), ("collision", lk.collision)):
+                if shapes:
+                    lines.append(f"    {key}:")
+                    lines += [f"      - {_shape(g, rel)}" for g in shapes]
+    if spec.poses:
+        lines.append("poses:")
+        for name, values in spec.poses.items():
+            lines.append(f"  {name}: {_vec(tuple(values[j.name] for j in spec.actuated_joints))}")
+    return "\n".join(lines) + "\n"

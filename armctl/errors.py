@@ -1,0 +1,191 @@
+"""The armctl exception tree: every error armctl raises derives from :class:`ArmctlError`.
+
+Each class carries the data that explains it as attributes, builds a message that says what went
+wrong, where, and how to fix it, and has an ``exit_code`` that the command-line interface returns.
+
+Exit codes (also documented in ``docs/cli.md``):
+
+* 0: success.
+* 1: unexpected internal error (a bug: please report it).
+* 2: bad input: a config file, a command-line argument, a value outside its range.
+* 3: no solution: an IK goal that cannot be reached, a path that cannot be planned.
+* 4: hardware or bus failure: port, timeout, checksum, servo error bits.
+* 5: motion stopped for safety (tracking error, lost servo, user stop).
+* 130: interrupted by the user (Ctrl-C) before anything moved.
+
+Subpackages define their specialised errors next to their code (for example
+``armctl.servo.errors``), always as subclasses of the classes below.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = [
+    "ArmctlError",
+    "BusError",
+    "ConfigError",
+    "InputError",
+    "JointLimitError",
+    "KeyPath",
+    "MotionAborted",
+    "NoSolutionError",
+    "PlanningError",
+    "UnknownNameError",
+]
+
+
+class ArmctlError(Exception):
+    """Root of every exception that armctl raises on purpose."""
+
+    exit_code: int = 1
+
+
+@dataclass(frozen=True)
+class KeyPath:
+    """A location inside a config file: the file, the key path and (when known) the line.
+
+    Attributes:
+        file: The file the value came from, or ``None`` for data built in memory.
+        keys: The path of keys and list indices from the document root, e.g.
+            ``("joints", 2, "limits", "upper")``.
+        line: 1-based line number in ``file``, or ``None`` when unknown.
+        label: Optional human-readable name of the item, such as a joint name, shown after
+            the first list index (``joints[2] (elbow)``).
+    """
+
+    file: Path | None = None
+    keys: tuple[str | int, ...] = ()
+    line: int | None = None
+    label: str | None = None
+
+    def dotted(self) -> str:
+        """The key path as text, e.g. ``joints[2] (elbow).limits.upper``."""
+        out = ""
+        labelled = False
+        for key in self.keys:
+            if isinstance(key, int):
+                out += f"[{key}]"
+                if self.label and not labelled:
+                    out += f" ({self.label})"
+                    labelled = True
+            else:
+                out += f".{key}" if out else key
+        return out or "<document root>"
+
+    def where(self) -> str:
+        """``file:line: key.path`` with the parts that are known."""
+        head = str(self.file) if self.file is not None else "<config>"
+        if self.line is not None:
+            head += f":{self.line}"
+        return f"{head}: {self.dotted()}"
+
+
+class InputError(ArmctlError, ValueError):
+    """A value given to armctl (an argument, an array, a command) is not acceptable."""
+
+    exit_code = 2
+
+
+class ConfigError(InputError):
+    """A config file (arm YAML, URDF, keyframes, goals, calibration) is invalid.
+
+    Args:
+        problem: What is wrong, e.g. ``"lower limit 1.2 is greater than upper limit 0.5"``.
+        where: Where it is: file, key path and line.
+        fix: How to fix it, e.g. ``"swap the two values"``.
+    """
+
+    def __init__(self, problem: str, where: KeyPath | None = None, fix: str | None = None):
+        self.problem = problem
+        self.where = where if where is not None else KeyPath()
+        self.fix = fix
+        text = f"{self.where.where()}: {problem}"
+        if fix:
+            text += f"\n  fix: {fix}"
+        super().__init__(text)
+
+
+class UnknownNameError(InputError, KeyError):
+    """A name (joint, frame, link, solver, servo register) that does not exist.
+
+    The message lists the valid names, the nearest one first when there is a close match.
+
+    Args:
+        kind: What kind of name, e.g. ``"frame"``.
+        name: The name that was asked for.
+        valid: The names that do exist.
+        context: Where the name was looked up, e.g. ``"arm 'so101'"``.
+    """
+
+    def __init__(self, kind: str, name: str, valid: Sequence[str], context: str = ""):
+        import difflib
+
+        self.kind = kind
+        self.name = name
+        self.valid = tuple(valid)
+        close = difflib.get_close_matches(name, self.valid, n=1)
+        text = f"unknown {kind} {name!r}"
+        if context:
+            text += f" in {context}"
+        if close:
+            text += f"; did you mean {close[0]!r}?"
+        shown = ", ".join(repr(v) for v in self.valid[:40])
+        if len(self.valid) > 40:
+            shown += ", ..."
+        text += f" Valid {kind} names: {shown}" if self.valid else f" (there are no {kind}s)"
+        self.message = text
+        super().__init__(text)
+
+    def __str__(self) -> str:  # KeyError would otherwise quote the message
+        return self.message
+
+
+class JointLimitError(InputError):
+    """A joint value outside its limits was requested; nothing was commanded.
+
+    Args:
+        joint: The joint's name.
+        value: The requested value in [rad] or [m].
+        lower: Lower limit in the same unit.
+        upper: Upper limit in the same unit.
+        context: What was being done, e.g. ``"goal of move-joints"``.
+    """
+
+    def __init__(self, joint: str, value: float, lower: float, upper: float, context: str = ""):
+        self.joint = joint
+        self.value = value
+        self.lower = lower
+        self.upper = upper
+        what = f" ({context})" if context else ""
+        super().__init__(
+            f"joint {joint!r}: {value:.6g} is outside its limits [{lower:.6g}, {upper:.6g}]{what};"
+            " nothing was sent. Choose a value inside the limits or widen them in the arm config."
+        )
+
+
+class NoSolutionError(ArmctlError):
+    """An IK goal or a plan has no solution; the best attempt is attached when there is one."""
+
+    exit_code = 3
+
+
+class PlanningError(NoSolutionError):
+    """A motion cannot be planned (IK fails along a path, limits would be exceeded).
+
+    A failed plan never moves the arm.
+    """
+
+
+class BusError(ArmctlError):
+    """Communication with the servos failed (port, timeout, checksum, servo error bits)."""
+
+    exit_code = 4
+
+
+class MotionAborted(ArmctlError):
+    """A motion was stopped for safety; the arm decelerated and holds its position."""
+
+    exit_code = 5

@@ -1,0 +1,217 @@
+"""Compiled (numba) kernels for forward kinematics and geometric Jacobians.
+
+The tree is packed into flat arrays by :class:`armctl.kinematics.model.KinematicModel`:
+
+* ``jd`` ``(n, 16)``: per actuated joint, rows 0-2 of the constant transform from the parent
+  joint's frame (or the base) to this joint's frame before its motion (12 numbers, row-major
+  3x4), then the unit axis (3) and 1.0 for prismatic / 0.0 for revolute joints.
+* ``parent`` ``(n,)``: the index of the parent actuated joint, -1 for the base.
+* ``fd`` ``(m, 12)``: per named frame, its constant 3x4 offset from its anchor joint's frame.
+* ``paths`` ``(m, n)``: per frame, the joints from the base to its anchor, padded with -1.
+
+A joint's frame after its motion is ``T_parent @ pre @ M(q)`` where ``M`` is a rotation about the
+axis (revolute) or a translation along it (prismatic).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _step(t: np.ndarray, row: np.ndarray, qj: float) -> None:
+    """``t = t @ pre @ M(qj)`` in place; ``t`` is a 3x4 block."""
+    # a = t @ pre
+    a00 = t[0, 0] * row[0] + t[0, 1] * row[4] + t[0, 2] * row[8]
+    a01 = t[0, 0] * row[1] + t[0, 1] * row[5] + t[0, 2] * row[9]
+    a02 = t[0, 0] * row[2] + t[0, 1] * row[6] + t[0, 2] * row[10]
+    a10 = t[1, 0] * row[0] + t[1, 1] * row[4] + t[1, 2] * row[8]
+    a11 = t[1, 0] * row[1] + t[1, 1] * row[5] + t[1, 2] * row[9]
+    a12 = t[1, 0] * row[2] + t[1, 1] * row[6] + t[1, 2] * row[10]
+    a20 = t[2, 0] * row[0] + t[2, 1] * row[4] + t[2, 2] * row[8]
+    a21 = t[2, 0] * row[1] + t[2, 1] * row[5] + t[2, 2] * row[9]
+    a22 = t[2, 0] * row[2] + t[2, 1] * row[6] + t[2, 2] * row[10]
+    p0 = t[0, 3] + t[0, 0] * row[3] + t[0, 1] * row[7] + t[0, 2] * row[11]
+    p1 = t[1, 3] + t[1, 0] * row[3] + t[1, 1] * row[7] + t[1, 2] * row[11]
+    p2 = t[2, 3] + t[2, 0] * row[3] + t[2, 1] * row[7] + t[2, 2] * row[11]
+    x, y, z = row[12], row[13], row[14]
+    if row[15] > 0.5:  # prismatic: translate along the axis
+        t[0, 0], t[0, 1], t[0, 2] = a00, a01, a02
+        t[1, 0], t[1, 1], t[1, 2] = a10, a11, a12
+        t[2, 0], t[2, 1], t[2, 2] = a20, a21, a22
+        t[0, 3] = p0 + (a00 * x + a01 * y + a02 * z) * qj
+        t[1, 3] = p1 + (a10 * x + a11 * y + a12 * z) * qj
+        t[2, 3] = p2 + (a20 * x + a21 * y + a22 * z) * qj
+        return
+    c = math.cos(qj)
+    s = math.sin(qj)
+    v = 1.0 - c
+    r00 = c + x * x * v
+    r01 = x * y * v - z * s
+    r02 = x * z * v + y * s
+    r10 = y * x * v + z * s
+    r11 = c + y * y * v
+    r12 = y * z * v - x * s
+    r20 = z * x * v - y * s
+    r21 = z * y * v + x * s
+    r22 = c + z * z * v
+    t[0, 0] = a00 * r00 + a01 * r10 + a02 * r20
+    t[0, 1] = a00 * r01 + a01 * r11 + a02 * r21
+    t[0, 2] = a00 * r02 + a01 * r12 + a02 * r22
+    t[1, 0] = a10 * r00 + a11 * r10 + a12 * r20
+    t[1, 1] = a10 * r01 + a11 * r11 + a12 * r21
+    t[1, 2] = a10 * r02 + a11 * r12 + a12 * r22
+    t[2, 0] = a20 * r00 + a21 * r10 + a22 * r20
+    t[2, 1] = a20 * r01 + a21 * r11 + a22 * r21
+    t[2, 2] = a20 * r02 + a21 * r12 + a22 * r22
+    t[0, 3] = p0
+    t[1, 3] = p1
+    t[2, 3] = p2
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _apply_offset(t: np.ndarray, off: np.ndarray, out: np.ndarray) -> None:
+    """``out = [t; 0 0 0 1] @ [off; 0 0 0 1]`` with ``out`` 4x4."""
+    for i in range(3):
+        t0, t1, t2 = t[i, 0], t[i, 1], t[i, 2]
+        out[i, 0] = t0 * off[0] + t1 * off[4] + t2 * off[8]
+        out[i, 1] = t0 * off[1] + t1 * off[5] + t2 * off[9]
+        out[i, 2] = t0 * off[2] + t1 * off[6] + t2 * off[10]
+        out[i, 3] = t[i, 3] + t0 * off[3] + t1 * off[7] + t2 * off[11]
+    out[3, 0] = 0.0
+    out[3, 1] = 0.0
+    out[3, 2] = 0.0
+    out[3, 3] = 1.0
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _identity34(t: np.ndarray) -> None:
+    for i in range(3):
+        for k in range(4):
+            t[i, k] = 1.0 if i == k else 0.0
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def fk_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
+            out: np.ndarray) -> None:
+    """Pose of frame ``f`` written into ``out`` (4x4)."""
+    t = np.empty((3, 4))
+    _identity34(t)
+    path = paths[f]
+    for k in range(path.shape[0]):
+        j = path[k]
+        if j < 0:
+            break
+        _step(t, jd[j], q[j])
+    _apply_offset(t, fd[f], out)
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def fk(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int) -> np.ndarray:
+    """Pose ``(4, 4)`` of frame ``f`` at joint vector ``q``."""
+    out = np.empty((4, 4))
+    fk_into(q, jd, fd, paths, f, out)
+    return out
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def fk_jacobian_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
+                     pose: np.ndarray, jac: np.ndarray) -> None:
+    """Pose (4x4) and geometric Jacobian (6 x n, rows [linear; angular]) of frame ``f``."""
+    n = jd.shape[0]
+    t = np.empty((3, 4))
+    _identity34(t)
+    path = paths[f]
+    depth = 0
+    w = np.empty((n, 3))
+    o = np.empty((n, 3))
+    for k in range(path.shape[0]):
+        j = path[k]
+        if j < 0:
+            break
+        _step(t, jd[j], q[j])
+        row = jd[j]
+        x, y, z = row[12], row[13], row[14]
+        # the axis is fixed by the joint's own motion, so the frame after it gives w
+        w[k, 0] = t[0, 0] * x + t[0, 1] * y + t[0, 2] * z
+        w[k, 1] = t[1, 0] * x + t[1, 1] * y + t[1, 2] * z
+        w[k, 2] = t[2, 0] * x + t[2, 1] * y + t[2, 2] * z
+        o[k, 0] = t[0, 3]
+        o[k, 1] = t[1, 3]
+        o[k, 2] = t[2, 3]
+        depth += 1
+    _apply_offset(t, fd[f], pose)
+    for i in range(6):
+        for c in range(n):
+            jac[i, c] = 0.0
+    ex, ey, ez = pose[0, 3], pose[1, 3], pose[2, 3]
+    for k in range(depth):
+        j = path[k]
+        wx, wy, wz = w[k, 0], w[k, 1], w[k, 2]
+        if jd[j, 15] > 0.5:
+            jac[0, j] = wx
+            jac[1, j] = wy
+            jac[2, j] = wz
+        else:
+            rx, ry, rz = ex - o[k, 0], ey - o[k, 1], ez - o[k, 2]
+            jac[0, j] = wy * rz - wz * ry
+            jac[1, j] = wz * rx - wx * rz
+            jac[2, j] = wx * ry - wy * rx
+            jac[3, j] = wx
+            jac[4, j] = wy
+            jac[5, j] = wz
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def jacobian(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
+             f: int) -> np.ndarray:
+    """Geometric Jacobian ``(6, n)`` of frame ``f``."""
+    pose = np.empty((4, 4))
+    jac = np.empty((6, jd.shape[0]))
+    fk_jacobian_into(q, jd, fd, paths, f, pose, jac)
+    return jac
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def fk_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
+             f: int) -> np.ndarray:
+    """Poses ``(N, 4, 4)`` of frame ``f`` for joint vectors ``qs`` ``(N, n)``."""
+    out = np.empty((qs.shape[0], 4, 4))
+    for i in range(qs.shape[0]):
+        fk_into(qs[i], jd, fd, paths, f, out[i])
+    return out
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def jacobian_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
+                   f: int) -> np.ndarray:
+    """Jacobians ``(N, 6, n)`` of frame ``f`` for joint vectors ``qs`` ``(N, n)``."""
+    out = np.empty((qs.shape[0], 6, jd.shape[0]))
+    pose = np.empty((4, 4))
+    for i in range(qs.shape[0]):
+        fk_jacobian_into(qs[i], jd, fd, paths, f, pose, out[i])
+    return out
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def fk_all(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, anchor: np.ndarray,
+           fd: np.ndarray) -> np.ndarray:
+    """Poses ``(m, 4, 4)`` of every named frame; ``anchor[f]`` is the frame's joint or -1."""
+    n = jd.shape[0]
+    world = np.empty((n + 1, 3, 4))  # slot n holds the base (identity)
+    _identity34(world[n])
+    for j in range(n):
+        p = parent[j]
+        src = world[n] if p < 0 else world[p]
+        for i in range(3):
+            for k in range(4):
+                world[j, i, k] = src[i, k]
+        _step(world[j], jd[j], q[j])
+    out = np.empty((fd.shape[0], 4, 4))
+    for f in range(fd.shape[0]):
+        a = anchor[f]
+        _apply_offset(world[n] if a < 0 else world[a], fd[f], out[f])
+    return out

@@ -1,0 +1,289 @@
+"""The compiled kinematic tree: forward kinematics and geometric Jacobians of any named frame."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.config.schema import ArmSpec, JointRole, JointType
+from armctl.errors import InputError, JointLimitError, UnknownNameError
+from armctl.kinematics import _kernels as K
+
+__all__ = ["KinematicModel"]
+
+Array = npt.NDArray[np.float64]
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+class KinematicModel:
+    """A tree of links and 1-DOF joints, compiled for fast FK and Jacobians.
+
+    Fixed joints are folded into constant transforms. The joint vector ``q`` lists the actuated
+    joints parents-first (the order of :attr:`joint_names`), in [rad] for revolute and continuous
+    joints and [m] for prismatic joints. Poses are ``(4, 4)`` transforms in the base frame.
+
+    Args:
+        spec: A validated arm description.
+    """
+
+    def __init__(self, spec: ArmSpec):
+        self.spec = spec
+        joints = spec.actuated_joints
+        self.name: str = spec.name
+        self.dof: int = len(joints)
+        self.joint_names: tuple[str, ...] = tuple(j.name for j in joints)
+        self.joint_types: tuple[JointType, ...] = tuple(j.type for j in joints)
+        self.joint_roles: tuple[JointRole, ...] = tuple(j.role for j in joints)
+        self.lower: Array = _readonly(np.array([j.limits.lower for j in joints], dtype=float))
+        self.upper: Array = _readonly(np.array([j.limits.upper for j in joints], dtype=float))
+        nan = float("nan")
+
+        def arr(key: str) -> Array:
+            vals = [getattr(j.limits, key) for j in joints]
+            return _readonly(np.array([nan if v is None else v for v in vals], dtype=float))
+
+        #: Velocity limits [rad/s] or [m/s]; NaN where unknown.
+        self.velocity_limits: Array = arr("velocity")
+        #: Acceleration limits [rad/s^2] or [m/s^2]; NaN where unknown.
+        self.acceleration_limits: Array = arr("acceleration")
+        #: Jerk limits [rad/s^3] or [m/s^3]; NaN where unknown.
+        self.jerk_limits: Array = arr("jerk")
+        self.tool: str = spec.tool
+        self.end_effectors: tuple[str, ...] = spec.end_effectors
+        self._joint_index = {name: i for i, name in enumerate(self.joint_names)}
+        self._compile(spec)
+
+    # ---- compilation --------------------------------------------------------------------------
+    def _compile(self, spec: ArmSpec) -> None:
+        n = self.dof
+        jd = np.zeros((n, 16))
+        parent = np.full(n, -1, dtype=np.int64)
+        anchor: dict[str, tuple[int, np.ndarray]] = {spec.base: (-1, np.eye(4))}
+        for j in spec.joints:  # parents first
+            a, t = anchor[j.parent]
+            pre = t @ j.origin.matrix()
+            if j.type is JointType.FIXED:
+                anchor[j.child] = (a, pre)
+                continue
+            i = self._joint_index[j.name]
+            jd[i, :12] = pre[:3, :4].reshape(12)
+            jd[i, 12:15] = j.axis
+            jd[i, 15] = 1.0 if j.type is JointType.PRISMATIC else 0.0
+            parent[i] = a
+            anchor[j.child] = (i, np.eye(4))
+        names = [lk.name for lk in spec.links]
+        offsets = [anchor[lk] for lk in names]
+        for f in spec.frames:
+            a, t = anchor[f.parent]
+            names.append(f.name)
+            offsets.append((a, t @ f.origin.matrix()))
+        m = len(names)
+        fd = np.zeros((m, 12))
+        frame_anchor = np.full(m, -1, dtype=np.int64)
+        paths = np.full((m, max(n, 1)), -1, dtype=np.int64)
+        for k, (a, t) in enumerate(offsets):
+            fd[k] = t[:3, :4].reshape(12)
+            frame_anchor[k] = a
+            chain = []
+            while a >= 0:
+                chain.append(a)
+                a = int(parent[a])
+            paths[k, : len(chain)] = chain[::-1]
+        self.frame_names: tuple[str, ...] = tuple(names)
+        self._frame_index = {name: i for i, name in enumerate(names)}
+        self._jd = _readonly(jd)
+        self._parent = _readonly(parent)
+        self._fd = _readonly(fd)
+        self._anchor = _readonly(frame_anchor)
+        self._paths = _readonly(paths)
+        self._tool_index = self._frame_index[spec.tool]
+
+    # ---- lookups ------------------------------------------------------------------------------
+    def frame_index(self, frame: str | None) -> int:
+        """Index of a named frame (``None``: the tool frame).
+
+        Raises:
+            UnknownNameError: If there is no such frame.
+        """
+        if frame is None:
+            return self._tool_index
+        try:
+            return self._frame_index[frame]
+        except KeyError:
+            raise UnknownNameError("frame", frame, self.frame_names, f"arm {self.name!r}") from None
+
+    def joint_index(self, joint: str) -> int:
+        """Index of an actuated joint in the joint vector.
+
+        Raises:
+            UnknownNameError: If there is no such actuated joint.
+        """
+        try:
+            return self._joint_index[joint]
+        except KeyError:
+            raise UnknownNameError("joint", joint, self.joint_names, f"arm {self.name!r}") from None
+
+    def chain(self, frame: str | None = None) -> tuple[int, ...]:
+        """Indices of the joints that move a frame, from the base outwards."""
+        path = self._paths[self.frame_index(frame)]
+        return tuple(int(j) for j in path if j >= 0)
+
+    def parent_joint(self, joint: int) -> int:
+        """Index of the actuated joint that carries ``joint``, -1 for the base."""
+        return int(self._parent[joint])
+
+    # ---- checks -------------------------------------------------------------------------------
+    def as_q(self, q: npt.ArrayLike, what: str = "q") -> Array:
+        """``q`` as a float vector of length :attr:`dof`.
+
+        Raises:
+            InputError: For a wrong length or non-finite values.
+        """
+        arr = np.asarray(q, dtype=np.float64)
+        if arr.shape != (self.dof,):
+            raise InputError(f"{what} must have {self.dof} values ({', '.join(self.joint_names)})"
+                             f" for arm {self.name!r}; got shape {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"{what} contains a NaN or infinite value: {arr.tolist()}")
+        return arr
+
+    def as_batch(self, qs: npt.ArrayLike, what: str = "qs") -> Array:
+        """``qs`` as a C-contiguous float array of shape ``(N, dof)``."""
+        arr = np.ascontiguousarray(qs, dtype=np.float64)
+        if arr.ndim != 2 or arr.shape[1] != self.dof:
+            raise InputError(f"{what} must have shape (N, {self.dof}) for arm {self.name!r}; "
+                             f"got {arr.shape}")
+        return arr
+
+    def within_limits(self, q: npt.ArrayLike, tol: float = 1e-9) -> bool:
+        """Whether every joint value lies inside its position limits (with tolerance ``tol``)."""
+        arr = self.as_q(q)
+        return bool(np.all(arr >= self.lower - tol) and np.all(arr <= self.upper + tol))
+
+    def check_limits(self, q: npt.ArrayLike, context: str = "", tol: float = 1e-9) -> Array:
+        """Return ``q`` if it is inside the limits, else raise for the first offending joint.
+
+        Raises:
+            JointLimitError: Naming the joint, the value and its limits.
+        """
+        arr = self.as_q(q)
+        bad = np.flatnonzero((arr < self.lower - tol) | (arr > self.upper + tol))
+        if bad.size:
+            i = int(bad[0])
+            raise JointLimitError(self.joint_names[i], float(arr[i]), float(self.lower[i]),
+                                  float(self.upper[i]), context)
+        return arr
+
+    def clip(self, q: npt.ArrayLike) -> Array:
+        """``q`` clipped into the position limits."""
+        return np.clip(self.as_q(q), self.lower, self.upper)
+
+    def sample(self, rng: np.random.Generator, n: int | None = None) -> Array:
+        """Uniform random configurations inside the limits (continuous joints in [-pi, pi]).
+
+        Args:
+            rng: The random generator.
+            n: How many; ``None`` gives one ``(dof,)`` vector, else ``(n, dof)``.
+        """
+        lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
+        hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
+        shape = (self.dof,) if n is None else (n, self.dof)
+        return rng.uniform(lo, hi, size=shape)
+
+    def middle(self) -> Array:
+        """The middle of every joint's range (0 for continuous joints)."""
+        lo = np.where(np.isfinite(self.lower), self.lower, 0.0)
+        hi = np.where(np.isfinite(self.upper), self.upper, 0.0)
+        return (lo + hi) / 2.0
+
+    # ---- kinematics ---------------------------------------------------------------------------
+    def fk(self, q: npt.ArrayLike, frame: str | None = None) -> Array:
+        """Pose of a frame.
+
+        Args:
+            q: Joint vector ``(dof,)`` in [rad] / [m].
+            frame: Frame name; the tool frame when ``None``.
+
+        Returns:
+            ``(4, 4)`` pose of the frame in the base frame (translation in [m]).
+        """
+        return K.fk(self.as_q(q), self._jd, self._fd, self._paths, self.frame_index(frame))
+
+    def fk_batch(self, qs: npt.ArrayLike, frame: str | None = None) -> Array:
+        """Poses of a frame for many joint vectors.
+
+        Args:
+            qs: Joint vectors ``(N, dof)``.
+            frame: Frame name; the tool frame when ``None``.
+
+        Returns:
+            ``(N, 4, 4)`` poses.
+        """
+        return K.fk_batch(self.as_batch(qs), self._jd, self._fd, self._paths,
+                          self.frame_index(frame))
+
+    def fk_all(self, q: npt.ArrayLike) -> dict[str, Array]:
+        """Poses of every named frame (links and extra frames) at once.
+
+        Args:
+            q: Joint vector ``(dof,)``.
+
+        Returns:
+            Frame name -> ``(4, 4)`` pose.
+        """
+        poses = K.fk_all(self.as_q(q), self._jd, self._parent, self._anchor, self._fd)
+        return {name: poses[i] for i, name in enumerate(self.frame_names)}
+
+    def fk_frames(self, q: npt.ArrayLike) -> Array:
+        """Poses ``(m, 4, 4)`` of every frame, in the order of :attr:`frame_names`."""
+        return K.fk_all(self.as_q(q), self._jd, self._parent, self._anchor, self._fd)
+
+    def jacobian(self, q: npt.ArrayLike, frame: str | None = None) -> Array:
+        """Geometric Jacobian of a frame's origin, in the base frame.
+
+        Column ``i`` is ``[w_i x (p - o_i); w_i]`` for a revolute joint and ``[w_i; 0]`` for a
+        prismatic one (``w_i`` the joint axis, ``o_i`` a point on it, ``p`` the frame origin);
+        joints that do not move the frame have zero columns.
+
+        Args:
+            q: Joint vector ``(dof,)``.
+            frame: Frame name; the tool frame when ``None``.
+
+        Returns:
+            ``(6, dof)`` matrix, rows ``[linear [m/rad]; angular [rad/rad]]``.
+        """
+        return K.jacobian(self.as_q(q), self._jd, self._fd, self._paths, self.frame_index(frame))
+
+    def jacobian_batch(self, qs: npt.ArrayLike, frame: str | None = None) -> Array:
+        """Geometric Jacobians ``(N, 6, dof)`` for many joint vectors ``(N, dof)``."""
+        return K.jacobian_batch(self.as_batch(qs), self._jd, self._fd, self._paths,
+                                self.frame_index(frame))
+
+    def fk_jacobian(self, q: npt.ArrayLike, frame: str | None = None) -> tuple[Array, Array]:
+        """Pose ``(4, 4)`` and Jacobian ``(6, dof)`` of a frame in one pass."""
+        pose = np.empty((4, 4))
+        jac = np.empty((6, self.dof))
+        K.fk_jacobian_into(self.as_q(q), self._jd, self._fd, self._paths,
+                           self.frame_index(frame), pose, jac)
+        return pose, jac
+
+    def named_pose(self, name: str) -> Array:
+        """The joint vector of a named pose from the config (``home``, ``park``, ...)."""
+        poses = self.spec.poses
+        if name not in poses:
+            raise UnknownNameError("pose", name, list(poses), f"arm {self.name!r}")
+        return np.array([poses[name][j] for j in self.joint_names])
+
+    def values_by_name(self, values: Sequence[float] | npt.ArrayLike) -> dict[str, float]:
+        """A joint vector as a ``{joint name: value}`` mapping."""
+        arr = self.as_q(values)
+        return {name: float(v) for name, v in zip(self.joint_names, arr, strict=True)}
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.name!r}: {self.dof} DOF, tool {self.tool!r}>"
