@@ -80,7 +80,7 @@ class KeyPath:
         head = str(self.file) if self.file is not None else "<config>"
         if self.line is not None:
             head += f":{self.line}"
-        return f"{head}: {self.dotted()}"
+        return f"{head}: {self.dotted()}" if self.keys else head
 
 
 class InputError(ArmctlError, ValueError):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from importlib import resources
 from pathlib import Path
 
 from armctl.config.arm_yaml import load_arm_yaml
@@ -18,13 +17,8 @@ _YAML_SUFFIXES = (".yaml", ".yml")
 
 def bundled_configs() -> dict[str, Path]:
     """The arm configs shipped with armctl, by name (``so101``, ``ur5e``, ...)."""
-    root = resources.files("armctl.configs")
-    out = {}
-    for entry in root.iterdir():
-        name = entry.name
-        if name.endswith(".yaml") and not name.startswith("_"):
-            out[name[: -len(".yaml")]] = Path(str(entry))
-    return dict(sorted(out.items()))
+    root = Path(__file__).resolve().parent.parent / "configs"
+    return {p.stem: p for p in sorted(root.glob("*.yaml")) if not p.name.startswith("_")}
 
 
 def resolve_config(name_or_path: str | Path) -> Path:

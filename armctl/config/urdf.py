@@ -162,6 +162,11 @@ def parse_urdf(text: str, file: Path | None = None, tip: str | None = None) -> U
         links.append(LinkSpec(name, vis, col))
     joints = [_joint(el, i, file, notes) for i, el in enumerate(root.findall("joint"))]
     names = [lk.name for lk in links]
+    for j in joints:
+        for link in (j.parent, j.child):
+            if link not in names:
+                raise ConfigError(f"joint {j.name!r} names link {link!r}, which is not defined",
+                                  j.where, "add a <link name=...> element or fix the name")
     children = {j.child for j in joints}
     roots = [n for n in names if n not in children]
     if not roots:
@@ -170,11 +175,6 @@ def parse_urdf(text: str, file: Path | None = None, tip: str | None = None) -> U
         raise ConfigError(f"the URDF has {len(roots)} roots: {', '.join(map(repr, roots))}", doc,
                           "connect every link to one tree with joints")
     base = roots[0]
-    for j in joints:
-        for link in (j.parent, j.child):
-            if link not in names:
-                raise ConfigError(f"joint {j.name!r} names link {link!r}, which is not defined",
-                                  j.where, "add a <link name=...> element or fix the name")
     ordered, _ = order_tree(base, joints, names, (), doc)
     tool = _choose_tip(ordered, base, names, tip)
     if tip is not None:

@@ -215,3 +215,69 @@ def fk_all(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, anchor: np.ndarray
         a = anchor[f]
         _apply_offset(world[n] if a < 0 else world[a], fd[f], out[f])
     return out
+
+
+# ---- per-frame chain layout, for single calls from Python (fewer arguments to dispatch) -------
+# ``rows`` (k + 1, 16): the jd rows of the k joints from the base to the frame's anchor, then the
+# frame's 3x4 offset in the first 12 entries of the last row; ``idx`` (k,): those joints' indices.
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def chain_fk(q: np.ndarray, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Pose ``(4, 4)`` of the frame described by ``rows``/``idx``."""
+    t = np.empty((3, 4))
+    _identity34(t)
+    k = idx.shape[0]
+    for i in range(k):
+        _step(t, rows[i], q[idx[i]])
+    out = np.empty((4, 4))
+    _apply_offset(t, rows[k], out)
+    return out
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def chain_fk_jacobian_into(q: np.ndarray, rows: np.ndarray, idx: np.ndarray, pose: np.ndarray,
+                           jac: np.ndarray) -> None:
+    """Pose (4x4) and geometric Jacobian (6 x dof) of the frame described by ``rows``/``idx``."""
+    t = np.empty((3, 4))
+    _identity34(t)
+    k = idx.shape[0]
+    w = np.empty((k, 3))
+    o = np.empty((k, 3))
+    for i in range(k):
+        row = rows[i]
+        _step(t, row, q[idx[i]])
+        x, y, z = row[12], row[13], row[14]
+        w[i, 0] = t[0, 0] * x + t[0, 1] * y + t[0, 2] * z
+        w[i, 1] = t[1, 0] * x + t[1, 1] * y + t[1, 2] * z
+        w[i, 2] = t[2, 0] * x + t[2, 1] * y + t[2, 2] * z
+        o[i, 0] = t[0, 3]
+        o[i, 1] = t[1, 3]
+        o[i, 2] = t[2, 3]
+    _apply_offset(t, rows[k], pose)
+    jac[:, :] = 0.0
+    ex, ey, ez = pose[0, 3], pose[1, 3], pose[2, 3]
+    for i in range(k):
+        j = idx[i]
+        wx, wy, wz = w[i, 0], w[i, 1], w[i, 2]
+        if rows[i, 15] > 0.5:
+            jac[0, j] = wx
+            jac[1, j] = wy
+            jac[2, j] = wz
+        else:
+            rx, ry, rz = ex - o[i, 0], ey - o[i, 1], ez - o[i, 2]
+            jac[0, j] = wy * rz - wz * ry
+            jac[1, j] = wz * rx - wx * rz
+            jac[2, j] = wx * ry - wy * rx
+            jac[3, j] = wx
+            jac[4, j] = wy
+            jac[5, j] = wz
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def chain_jacobian(q: np.ndarray, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Geometric Jacobian ``(6, dof)`` of the frame described by ``rows``/``idx``."""
+    pose = np.empty((4, 4))
+    jac = np.empty((6, q.shape[0]))
+    chain_fk_jacobian_into(q, rows, idx, pose, jac)
+    return jac

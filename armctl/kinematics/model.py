@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -95,6 +96,14 @@ class KinematicModel:
                 chain.append(a)
                 a = int(parent[a])
             paths[k, : len(chain)] = chain[::-1]
+        chains = []
+        for k in range(m):
+            idx = paths[k][paths[k] >= 0].astype(np.int64)
+            rows = np.zeros((idx.size + 1, 16))
+            rows[: idx.size] = jd[idx]
+            rows[idx.size, :12] = fd[k]
+            chains.append((_readonly(rows), _readonly(idx)))
+        self._chains: tuple[tuple[np.ndarray, np.ndarray], ...] = tuple(chains)
         self.frame_names: tuple[str, ...] = tuple(names)
         self._frame_index = {name: i for i, name in enumerate(names)}
         self._jd = _readonly(jd)
@@ -149,8 +158,17 @@ class KinematicModel:
         if arr.shape != (self.dof,):
             raise InputError(f"{what} must have {self.dof} values ({', '.join(self.joint_names)})"
                              f" for arm {self.name!r}; got shape {arr.shape}")
-        if not np.all(np.isfinite(arr)):
+        if not math.isfinite(arr.sum()):  # one reduction: NaN or inf anywhere makes it non-finite
             raise InputError(f"{what} contains a NaN or infinite value: {arr.tolist()}")
+        return arr
+
+    def _fast_q(self, q: npt.ArrayLike) -> Array:
+        """``q`` for pure computations: a float vector of length :attr:`dof` (NaN passes)."""
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self.dof,):
+            return q
+        arr = np.asarray(q, dtype=np.float64)
+        if arr.shape != (self.dof,):
+            return self.as_q(arr)  # raises with a clear message
         return arr
 
     def as_batch(self, qs: npt.ArrayLike, what: str = "qs") -> Array:
@@ -211,9 +229,11 @@ class KinematicModel:
             frame: Frame name; the tool frame when ``None``.
 
         Returns:
-            ``(4, 4)`` pose of the frame in the base frame (translation in [m]).
+            ``(4, 4)`` pose of the frame in the base frame (translation in [m]). A NaN in ``q``
+            gives NaN entries (nothing is commanded from here; commands check their input).
         """
-        return K.fk(self.as_q(q), self._jd, self._fd, self._paths, self.frame_index(frame))
+        rows, idx = self._chains[self.frame_index(frame)]
+        return K.chain_fk(self._fast_q(q), rows, idx)
 
     def fk_batch(self, qs: npt.ArrayLike, frame: str | None = None) -> Array:
         """Poses of a frame for many joint vectors.
@@ -258,7 +278,8 @@ class KinematicModel:
         Returns:
             ``(6, dof)`` matrix, rows ``[linear [m/rad]; angular [rad/rad]]``.
         """
-        return K.jacobian(self.as_q(q), self._jd, self._fd, self._paths, self.frame_index(frame))
+        rows, idx = self._chains[self.frame_index(frame)]
+        return K.chain_jacobian(self._fast_q(q), rows, idx)
 
     def jacobian_batch(self, qs: npt.ArrayLike, frame: str | None = None) -> Array:
         """Geometric Jacobians ``(N, 6, dof)`` for many joint vectors ``(N, dof)``."""
@@ -267,10 +288,10 @@ class KinematicModel:
 
     def fk_jacobian(self, q: npt.ArrayLike, frame: str | None = None) -> tuple[Array, Array]:
         """Pose ``(4, 4)`` and Jacobian ``(6, dof)`` of a frame in one pass."""
+        rows, idx = self._chains[self.frame_index(frame)]
         pose = np.empty((4, 4))
         jac = np.empty((6, self.dof))
-        K.fk_jacobian_into(self.as_q(q), self._jd, self._fd, self._paths,
-                           self.frame_index(frame), pose, jac)
+        K.chain_fk_jacobian_into(self._fast_q(q), rows, idx, pose, jac)
         return pose, jac
 
     def named_pose(self, name: str) -> Array:

@@ -1,0 +1,125 @@
+"""URDF -> armctl YAML -> load gives identical kinematics for every frame of the original."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import DATA, WITH_URDF
+
+import armctl
+from armctl.cli import main
+from armctl.config.arm_yaml import parse_arm
+from armctl.config.source import parse_yaml
+from armctl.config.urdf import load_urdf, parse_urdf
+from armctl.config.writer import dump_arm_yaml
+
+
+def _random_tree(seed: int) -> str:
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent.parent / "kinematics"))
+    from randarm import random_tree_urdf
+
+    return random_tree_urdf(np.random.default_rng(seed), 12)
+
+
+def assert_same_kinematics(a: armctl.Arm, b: armctl.Arm, seed: int = 0) -> None:
+    assert a.joint_names == b.joint_names
+    np.testing.assert_array_equal(a.lower, b.lower)
+    np.testing.assert_array_equal(a.upper, b.upper)
+    assert set(a.frame_names) <= set(b.frame_names)
+    rng = np.random.default_rng(seed)
+    for q in a.sample(rng, 20):
+        pa, pb = a.fk_all(q), b.fk_all(q)
+        for name in a.frame_names:
+            np.testing.assert_allclose(pb[name], pa[name], atol=1e-12, err_msg=name)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_random_tree_round_trip(seed: int) -> None:
+    spec = parse_urdf(_random_tree(seed)).spec
+    text = dump_arm_yaml(spec)
+    again = parse_arm(parse_yaml(text))
+    assert_same_kinematics(armctl.Arm(spec), armctl.Arm(again), seed)
+    assert not any(j.type.value == "fixed" for j in again.joints)  # fixed joints were merged
+
+
+@pytest.mark.parametrize("name", WITH_URDF)
+def test_reference_urdf_round_trip_through_cli(name: str, tmp_path: Path) -> None:
+    urdf = DATA / "urdf" / f"{name}.urdf"
+    out = tmp_path / f"{name}.yaml"
+    assert main(["convert", str(urdf), "-o", str(out)]) == 0
+    assert_same_kinematics(armctl.load_arm(urdf), armctl.load_arm(out))
+
+
+def test_convert_refuses_to_overwrite(tmp_path: Path) -> None:
+    out = tmp_path / "x.yaml"
+    out.write_text("keep me")
+    assert main(["convert", str(DATA / "urdf" / "ur5e.urdf"), "-o", str(out)]) == 2
+    assert out.read_text() == "keep me"
+
+
+def test_tip_keeps_only_the_chain() -> None:
+    text = _random_tree(3)
+    full = parse_urdf(text).spec
+    leaf = full.end_effectors[-1]
+    imported = parse_urdf(text, tip=leaf)
+    assert imported.spec.tool == leaf
+    kept = {j.child for j in imported.spec.joints}
+    parents = {j.child: j.parent for j in full.joints}
+    link, chain = leaf, set()
+    while link in parents:
+        chain.add(link)
+        link = parents[link]
+    assert kept == chain
+
+
+def test_mimic_joint_becomes_fixed_with_a_note(tmp_path: Path) -> None:
+    text = """<robot name="g"><link name="a"/><link name="b"/><link name="c"/>
+      <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+        <limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
+      <joint name="finger" type="prismatic"><parent link="b"/><child link="c"/>
+        <axis xyz="1 0 0"/><limit lower="0" upper="0.04" velocity="1" effort="1"/>
+        <mimic joint="j" multiplier="1" offset="0.01"/></joint></robot>"""
+    p = tmp_path / "g.urdf"
+    p.write_text(text)
+    imported = load_urdf(p)
+    assert imported.spec.actuated_joints[0].name == "j"
+    assert len(imported.spec.actuated_joints) == 1
+    assert any("mimic joint 'finger'" in n for n in imported.notes)
+    arm = armctl.Arm(imported.spec)
+    np.testing.assert_allclose(arm.fk([0.0], "c")[:3, 3], [0.01, 0, 0], atol=1e-15)
+
+
+def test_multi_dof_joints_expand(tmp_path: Path) -> None:
+    p = tmp_path / "s.yaml"
+    p.write_text("""armctl: 1
+name: s
+base: base
+joints:
+  - name: shoulder
+    type: spherical
+    parent: base
+    child: upper
+    limits: [{lower: -1, upper: 1}, {lower: -2, upper: 2}, {lower: -3, upper: 3}]
+  - name: wrist
+    type: universal
+    parent: upper
+    child: hand
+    origin: {xyz: [0, 0, 0.3]}
+    axes: [[0, 1, 0], [1, 0, 0]]
+    limits: [{lower: -1, upper: 1}, {lower: -1, upper: 1}]
+""")
+    arm = armctl.load_arm(p)
+    assert arm.joint_names == ("shoulder_1", "shoulder_2", "shoulder_3", "wrist_1", "wrist_2")
+    np.testing.assert_array_equal(arm.upper, [1, 2, 3, 1, 1])
+    q = np.array([0.3, -0.2, 0.5, 0.1, 0.4])
+    from armctl.spatial import axis_angle_to_matrix as rot
+
+    r = rot([1, 0, 0], q[0]) @ rot([0, 1, 0], q[1]) @ rot([0, 0, 1], q[2])
+    hand = r @ rot([0, 1, 0], q[3]) @ rot([1, 0, 0], q[4])
+    pose = arm.fk(q)
+    np.testing.assert_allclose(pose[:3, :3], hand, atol=1e-14)
+    np.testing.assert_allclose(pose[:3, 3], r @ [0, 0, 0.3], atol=1e-14)
