@@ -1,0 +1,301 @@
+"""Commands that show the arm: ``render`` (pictures and playback), ``workspace``, ``view``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from armctl.cli._common import add_config, add_json, emit, fmt, load_arm_arg, parse_angles, table
+from armctl.errors import InputError
+
+if TYPE_CHECKING:
+    from armctl.arm import Arm
+    from armctl.render.draw import Camera, View
+    from armctl.render.picture import Target
+
+ORDER = 60
+
+_VIEWS = ("iso", "front", "side", "top", "all")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the drawing commands."""
+    p = sub.add_parser("render", help="draw the arm in a pose (PNG/SVG/PDF) or a playback (GIF)",
+                       description="Draw the arm at joint values Q (default: the 'home' pose, "
+                       "else the middle of the joint ranges). Pictures are drawn headless.")
+    add_config(p)
+    p.add_argument("q", nargs="*", metavar="Q", help="joint values, radians/metres (see --deg)")
+    p.add_argument("-o", "--output", required=True,
+                   help="image file (.png .svg .pdf .jpg), or .gif/.mp4 with --keyframes")
+    p.add_argument("--deg", action="store_true", help="rotary joint values and rpy in degrees")
+    p.add_argument("--pose", help="a named pose of the arm instead of Q")
+    p.add_argument("--view", choices=_VIEWS, default="iso",
+                   help="camera: iso, front (from +x), side (from -y), top, or all four")
+    p.add_argument("--elev", type=float, help="camera elevation [deg] (overrides --view)")
+    p.add_argument("--azim", type=float, help="camera azimuth from +x [deg] (overrides --view)")
+    p.add_argument("--frames", action="append", metavar="NAMES",
+                   help="frames drawn as axis triads: 'tool' (default), 'all', 'none', or "
+                   "comma-separated frame names; may be repeated")
+    p.add_argument("--target-xyz", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                   help="draw a target position [m]")
+    p.add_argument("--target-rpy", nargs=3, type=float, metavar=("R", "P", "Y"),
+                   help="target orientation, roll pitch yaw (radians, or degrees with --deg)")
+    motion = p.add_mutually_exclusive_group()
+    motion.add_argument("--keyframes", metavar="FILE",
+                        help="animate the playback of a keyframe file from Q (-o .gif or .mp4)")
+    motion.add_argument("--path", action="store_true",
+                        help="plan a straight-line move from Q to the target and draw it with its "
+                        "IK samples (-o image), or animate it (-o .gif/.mp4)")
+    p.add_argument("--solver", default="auto", help="IK solver for --path and pose keyframes")
+    p.add_argument("--speed", type=float, default=1.0,
+                   help="speed factor of the planned motion, (0, 1] (default 1)")
+    p.add_argument("--fps", type=float, default=20.0, help="animation frames per second (20)")
+    p.add_argument("--size", type=float, default=None,
+                   help="size of one panel [in] (default 5, animations 4.5)")
+    p.add_argument("--dpi", type=float, default=None,
+                   help="resolution (default 110, animations 80)")
+    p.add_argument("--tip", help="URDF only: keep the chain to this link")
+    add_json(p)
+    p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("workspace", help="plot the reachable workspace (sampled FK cloud)")
+    add_config(p)
+    p.add_argument("-o", "--output", required=True, help="image file (.png .svg .pdf .jpg)")
+    p.add_argument("--frame", help="frame to sample (default: the tool frame)")
+    p.add_argument("--samples", type=int, default=20000, help="random configurations (20000)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    p.add_argument("--voxel", type=float, help="voxel edge [m] of the volume estimate")
+    p.add_argument("--z", type=float, help="height [m] of the x-y slice (default: mid z)")
+    p.add_argument("--y", type=float, help="offset [m] of the x-z slice (default: mid y)")
+    p.add_argument("--slab", type=float, help="slice thickness [m] (default: 5%% of the extent)")
+    p.add_argument("--tip", help="URDF only: keep the chain to this link")
+    add_json(p)
+    p.set_defaults(func=cmd_workspace)
+
+    p = sub.add_parser("view", help="live 3-D view in the browser (extra 'view': viser)",
+                       description="Serve a live 3-D view of the arm with joint sliders and a "
+                       "draggable IK target. Stops on Ctrl-C (or after --duration). The view "
+                       "never commands the arm: with --bus it only reads joint positions.")
+    add_config(p)
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address to listen on (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=int, default=8080, help="TCP port (default 8080; 0: any free)")
+    p.add_argument("--bus", action="store_true",
+                   help="follow the arm's servo bus (the 'bus:' section; the simulated bus "
+                   "when it says so) by reading joint positions")
+    p.add_argument("--sim", action="store_true",
+                   help="with --bus: use the built-in simulated bus whatever port the config names")
+    p.add_argument("--rate", type=float, default=20.0, help="bus polls per second (20)")
+    p.add_argument("--solver", default="auto", help="IK solver for the target (default auto)")
+    p.add_argument("--duration", type=float, help="stop after this many seconds")
+    p.add_argument("--tip", help="URDF only: keep the chain to this link")
+    add_json(p)
+    p.set_defaults(func=cmd_view)
+
+
+# ---- argument helpers --------------------------------------------------------------------------
+def frames_arg(args: argparse.Namespace) -> list[str]:
+    """The frame names of ``--frames`` (default ``tool``)."""
+    if not args.frames:
+        return ["tool"]
+    return [n.strip() for item in args.frames for n in item.split(",") if n.strip()]
+
+
+def _view(args: argparse.Namespace) -> tuple[View, Camera | None]:
+    from armctl.render.draw import Camera, View, cameras_for
+
+    view = View(args.view)
+    if args.elev is None and args.azim is None:
+        return view, None
+    base = cameras_for(View.ISO if view is View.ALL else view)[0]
+    elev = base.elev if args.elev is None else args.elev
+    azim = base.azim if args.azim is None else args.azim
+    if not (math.isfinite(elev) and math.isfinite(azim)):
+        raise InputError(f"--elev and --azim must be finite angles in degrees, got {elev}, {azim}")
+    return view, Camera(f"elev {elev:g}, azim {azim:g}", elev, azim)
+
+
+def _target(args: argparse.Namespace) -> Target | None:
+    from armctl.render.picture import Target
+
+    if args.target_rpy is not None and args.target_xyz is None:
+        raise InputError("--target-rpy needs --target-xyz (the target's position)")
+    if args.target_xyz is None:
+        return None
+    values = [*args.target_xyz, *(args.target_rpy or ())]
+    if not all(math.isfinite(v) for v in values):
+        raise InputError(f"the target has a NaN or infinite value: {values}")
+    rpy = None
+    if args.target_rpy is not None:
+        rpy = np.radians(args.target_rpy) if args.deg else np.asarray(args.target_rpy)
+    return Target.from_xyz_rpy(args.target_xyz, rpy)
+
+
+def _q(args: argparse.Namespace, arm: Arm) -> np.ndarray:
+    if args.q and args.pose:
+        raise InputError("give joint values or --pose, not both")
+    if args.q:
+        return parse_angles(args.q, args.deg, arm)
+    if args.pose:
+        return arm.named_pose(args.pose)
+    return arm.named_pose("home") if "home" in arm.spec.poses else arm.middle()
+
+
+# ---- commands ----------------------------------------------------------------------------------
+def cmd_render(args: argparse.Namespace) -> int:
+    """Draw the arm in one pose, a planned straight-line move, or a keyframe playback."""
+    from armctl.render.picture import render_pose
+
+    arm = load_arm_arg(args)
+    view, camera = _view(args)
+    target = _target(args)
+    q = _q(args, arm)
+    for name in ("size", "dpi", "fps"):
+        value = getattr(args, name)
+        if value is not None and not value > 0:
+            raise InputError(f"--{name} must be positive, got {value}")
+    if args.keyframes or args.path:
+        return _render_motion(args, arm, q, view, camera, target)
+    pic = render_pose(arm, q, args.output, view=view, camera=camera, frames=frames_arg(args),
+                      target=target, size=args.size or 5.0, dpi=args.dpi or 110.0)
+    lines = [f"wrote {pic.path} ({', '.join(c.name for c in pic.cameras)})",
+             "tool at x {} y {} z {} m".format(*(fmt(v) for v in pic.tool_position))]
+    if pic.target_distance is not None:
+        lines.append(f"distance from the tool to the target: {fmt(pic.target_distance)} m")
+    inside = arm.within_limits(q)
+    if not inside:
+        lines.append("note: these joint values are outside the joint limits")
+    emit(args, {"output": str(pic.path), "q": q, "views": [c.name for c in pic.cameras],
+                "tool_position": pic.tool_position, "target_distance": pic.target_distance,
+                "within_limits": inside}, "\n".join(lines))
+    return 0
+
+
+def _render_motion(args: argparse.Namespace, arm: Arm, q: np.ndarray, view: View,
+                   camera: Camera | None, target: Target | None) -> int:
+    """``render --keyframes`` and ``render --path``: plan (moving nothing), then draw."""
+    from pathlib import Path
+
+    from armctl.render.animation import ANIMATION_SUFFIXES, render_animation
+    from armctl.render.motions import plan_keyframes, plan_straight_line, sample_plan
+    from armctl.render.picture import render_path
+    from armctl.render.plots import IMAGE_SUFFIXES, check_output
+
+    animate = Path(args.output).suffix.lower() in ANIMATION_SUFFIXES
+    if args.keyframes and not animate:
+        raise InputError(f"--keyframes draws an animation: give -o a .gif or .mp4 file, "
+                         f"not {args.output!r}")
+    check_output(args.output, ANIMATION_SUFFIXES if animate else IMAGE_SUFFIXES)
+    line = None
+    data: dict[str, Any] = {"output": args.output, "start": q}
+    if args.keyframes:
+        plan = plan_keyframes(arm, args.keyframes, q, args.solver, args.speed)
+        head = f"playback of {Path(args.keyframes).name}"
+    else:
+        if target is None:
+            raise InputError("--path needs the goal: give --target-xyz (and --target-rpy for "
+                             "an orientation)")
+        planned = plan_straight_line(arm, q, target.pose, target.oriented, args.solver,
+                                     args.speed)
+        plan, line = planned.plan, planned.line
+        head = f"straight line, {len(planned.samples)} IK samples"
+        data["samples"] = len(planned.samples)
+        if not animate:
+            pic = render_path(arm, planned.samples, args.output, line=line, view=view,
+                              camera=camera, target=target, size=args.size or 5.0)
+            data.update(max_deviation=pic.max_deviation, duration=plan.duration,
+                        goal=plan.goal)
+            emit(args, data, f"wrote {pic.path}: {head}, {plan.duration:.2f} s; largest "
+                 f"distance of a sample from the line {fmt((pic.max_deviation or 0.0) * 1e3, 3)}"
+                 " mm")
+            return 0
+    ts, qs = sample_plan(plan, max(args.fps, 1.0) * 2.0)
+    res = render_animation(arm, qs, ts, args.output, fps=args.fps, view=view, camera=camera,
+                           frames=frames_arg(args), target=target, line=line,
+                           size=args.size or 4.5, dpi=args.dpi or 80.0,
+                           title=f"{arm.name}: {head}")
+    data.update(frames=res.frames, fps=res.fps, duration=res.duration, goal=plan.goal)
+    emit(args, data, f"wrote {res.path}: {head}, {res.duration:.2f} s, {res.frames} frames "
+         f"at {res.fps:.3g} fps (planned only; nothing moved)")
+    return 0
+
+
+def cmd_workspace(args: argparse.Namespace) -> int:
+    """Sample and plot the reachable workspace."""
+    from armctl.render.plots import check_output
+    from armctl.render.workspace import plot_workspace, sample_workspace
+
+    arm = load_arm_arg(args)
+    check_output(args.output)
+    ws = sample_workspace(arm, args.samples, args.frame, args.seed, args.voxel)
+    plot = plot_workspace(ws, args.output, z_slice=args.z, y_slice=args.y, slab=args.slab)
+    rows = [[axis, fmt(lo), fmt(hi), fmt(hi - lo)]
+            for axis, lo, hi in zip("xyz", ws.lower, ws.upper, strict=True)]
+    hull = "-" if ws.hull_volume is None else f"{ws.hull_volume:.4g} m^3"
+    text = "\n".join([
+        f"workspace of {ws.frame!r} on arm {arm.name!r}: {len(ws.points)} samples "
+        f"(seed {args.seed})",
+        table(["axis", "min [m]", "max [m]", "extent [m]"], rows, right=[1, 2, 3]),
+        f"largest distance from the base origin: {fmt(ws.max_reach)} m",
+        f"volume: {ws.voxel_volume:.4g} m^3 from occupied {fmt(ws.voxel, 3)} m voxels (surface "
+        "voxels half); "
+        f"convex hull {hull}",
+        f"wrote {plot.path} (x-y slice at z = {fmt(plot.z_slice, 3)} m, x-z slice at "
+        f"y = {fmt(plot.y_slice, 3)} m, slab {fmt(plot.slab, 3)} m)",
+    ])
+    emit(args, {"output": str(plot.path), "frame": ws.frame, "samples": len(ws.points),
+                "seed": args.seed, "lower": ws.lower, "upper": ws.upper,
+                "max_reach": ws.max_reach, "voxel": ws.voxel, "voxel_volume": ws.voxel_volume,
+                "hull_volume": ws.hull_volume, "z_slice": plot.z_slice, "y_slice": plot.y_slice,
+                "slab": plot.slab}, text)
+    return 0
+
+
+def _bus_reader(arm: Arm, sim: bool) -> Any:
+    import dataclasses
+
+    from armctl.config.bus import SIM_PORT
+    from armctl.servo import ArmBus
+
+    spec = arm.spec
+    if spec.bus is None:
+        raise InputError(f"arm {arm.name!r} has no 'bus:' section, so there is no bus to follow;"
+                         " add one to the arm config or run the view without --bus")
+    if sim:
+        spec = dataclasses.replace(spec, bus=dataclasses.replace(spec.bus, port=SIM_PORT))
+    return ArmBus.from_spec(spec).open()
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    """Serve the live view until interrupted."""
+    from armctl.render.live import LiveView
+
+    arm = load_arm_arg(args)
+    if not 0 <= args.port <= 65535:
+        raise InputError(f"--port {args.port} is not a TCP port (0-65535)")
+    if args.rate <= 0:
+        raise InputError(f"--rate must be positive, got {args.rate}")
+    if args.sim and not args.bus:
+        raise InputError("--sim applies to --bus (the bus the view follows)")
+    bus = _bus_reader(arm, args.sim) if args.bus else None
+    view = LiveView(arm, args.host, args.port, args.solver)
+    try:
+        url = view.start()
+        if bus is not None:
+            view.follow(bus.read_joints, args.rate)
+        emit(args, {"url": url, "port": view.port, "bus": bus is not None},
+             f"live view of {arm.name!r} at {url} (Ctrl-C stops)")
+        sys.stdout.flush()
+        end = math.inf if args.duration is None else time.monotonic() + args.duration
+        while time.monotonic() < end:
+            time.sleep(min(0.2, max(end - time.monotonic(), 0.0)))
+    finally:
+        view.stop()
+        if bus is not None:
+            bus.close()
+    return 0
