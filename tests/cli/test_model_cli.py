@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import DATA
+from armctl_testpaths import DATA
 
 import armctl
 from armctl.cli import main

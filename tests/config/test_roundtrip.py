@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import DATA, WITH_URDF
+from armctl_testpaths import DATA, WITH_URDF
 
 import armctl
 from armctl.cli import main

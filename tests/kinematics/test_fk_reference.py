@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import CONFIGS, DATA, WITH_URDF
+from armctl_testpaths import CONFIGS, DATA, WITH_URDF
 from randarm import random_tree_urdf
 
 import armctl

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import BUNDLED, CONFIGS, DATA
+from armctl_testpaths import BUNDLED, CONFIGS, DATA
 from randarm import random_tree_urdf
 
 import armctl

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import BUNDLED
+from armctl_testpaths import BUNDLED
 from PIL import Image
 
 from armctl.arm import load_arm

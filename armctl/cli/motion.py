@@ -1,0 +1,477 @@
+"""Motion commands: move-to-pose, move-joints, home, park, teach, play."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from armctl.cli._common import add_config, add_json, emit, fmt, parse_angles, table
+from armctl.errors import ArmctlError, InputError
+
+if TYPE_CHECKING:
+    from armctl.motion import MotionPlan
+    from armctl.robot import CycleInfo, MoveReport, Robot
+
+ORDER = 40
+
+
+# ---- arguments -------------------------------------------------------------------------------
+def _add_move_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--speed", type=float, default=None,
+                   help="speed factor in (0, 1] of the joint limits (default: the config's)")
+    p.add_argument("--dry-run", action="store_true", help="print the plan, move nothing")
+    p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None,
+                   help="what to do at the end and on a second Ctrl-C (default: the config's, "
+                        "normally hold)")
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add the motion commands."""
+    p = sub.add_parser("move-to-pose", help="move the tool to a position (and orientation)",
+                       description="Solve IK for the goal, plan a synchronised move (or a "
+                       "straight line with --linear), stream it, and report the reached pose "
+                       "(FK of the joints read back). Unreachable goals move nothing (exit 3).")
+    add_config(p)
+    from armctl.cli.ik import add_goal_arguments
+
+    add_goal_arguments(p)  # --xyz, --rpy/--quat/--direction, --frame, --tol-pos, --tol-rot
+    p.add_argument("--deg", action="store_true", help="--rpy in degrees")
+    p.add_argument("--linear", action="store_true", help="move the tool along a straight line")
+    p.add_argument("--solver", default="auto", help="IK solver (default auto)")
+    _add_move_options(p)
+    add_json(p)
+    p.set_defaults(func=cmd_move_to_pose)
+
+    p = sub.add_parser("move-joints", help="move every joint to the given values together")
+    add_config(p)
+    p.add_argument("values", nargs="+", metavar="Q", help="one value per joint [rad] or [m]")
+    p.add_argument("--deg", action="store_true", help="rotary joint values in degrees")
+    _add_move_options(p)
+    add_json(p)
+    p.set_defaults(func=cmd_move_joints)
+
+    for name, what in (("home", "the 'home' pose"), ("park", "the 'park' rest pose")):
+        p = sub.add_parser(name, help=f"move to {what}")
+        add_config(p)
+        _add_move_options(p)
+        add_json(p)
+        p.set_defaults(func=cmd_named, pose=name)
+
+    p = sub.add_parser("teach", help="record keyframes by hand-guiding or jogging",
+                       description="Torque goes off for the released joints (grippers stay "
+                       "stiff); guide the arm and press Enter to record a keyframe. The file is "
+                       "rewritten atomically after every keyframe. Type 'help' for commands.")
+    add_config(p)
+    p.add_argument("-o", "--output", required=True, help="keyframe file to write")
+    p.add_argument("--release", nargs="+", default=None, metavar="JOINT",
+                   help="joints to release for hand-guiding (default: all but the gripper)")
+    p.add_argument("--stiff", action="store_true", help="start with torque on (jog mode)")
+    p.add_argument("--deg", action="store_true", help="write angles in degrees")
+    add_json(p)
+    p.set_defaults(func=cmd_teach)
+
+    p = sub.add_parser("play", help="play a keyframe file",
+                       description="Plan the whole program first (every sample is checked "
+                       "against the position, velocity and acceleration limits), then play it.")
+    p.add_argument("file", metavar="FILE", help="keyframe file")
+    add_config(p)
+    p.add_argument("--interpolation", choices=["linear", "cubic", "min-jerk"],
+                   default="min-jerk", help="how keyframes are joined (default min-jerk)")
+    p.add_argument("--stop-at-keyframes", action="store_true",
+                   help="stop at every keyframe instead of passing through")
+    p.add_argument("--loop", type=int, default=1, metavar="N", help="play N times")
+    p.add_argument("--reverse", action="store_true", help="play the keyframes backwards")
+    p.add_argument("--no-ease-in", action="store_true",
+                   help="do not move slowly to the first keyframe (the arm must be there)")
+    p.add_argument("--ignore-times", action="store_true",
+                   help="time a recording by the joint limits, not its time stamps")
+    p.add_argument("--preview", metavar="PNG", help="write a plot of the plan (no motion)")
+    p.add_argument("--solver", default="auto", help="IK solver for pose keyframes")
+    p.add_argument("--speed", type=float, default=1.0,
+                   help="speed factor: 0.1-4 for recordings, (0, 1] of the limits otherwise")
+    p.add_argument("--dry-run", action="store_true", help="print the plan, move nothing")
+    p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None)
+    add_json(p)
+    p.set_defaults(func=cmd_play)
+
+
+# ---- shared ------------------------------------------------------------------------------------
+def _open(args: argparse.Namespace) -> Robot:
+    from armctl.config.motion import ExitPolicy
+    from armctl.robot import Robot
+
+    policy = ExitPolicy(args.exit_policy) if getattr(args, "exit_policy", None) else None
+    speed = getattr(args, "speed", None)
+    robot = Robot.open(args.config, speed=speed if speed is not None and speed <= 1 else None,
+                       exit_policy=policy)
+    if robot.simulated and not getattr(args, "json", False):
+        print(f"--- SIMULATED BUS: arm {robot.arm.name!r}, no hardware ---", file=sys.stderr)
+    return robot
+
+
+class _Progress:
+    """A one-line progress bar with the live tracking error, on a terminal only."""
+
+    def __init__(self, enabled: bool, unit: str = "rad"):
+        self.enabled = enabled and sys.stderr.isatty()
+        self.unit = unit
+        self._last = 0.0
+
+    def __call__(self, info: CycleInfo) -> None:
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        if now - self._last < 0.1 and info.t < info.duration:
+            return
+        self._last = now
+        frac = min(info.t / info.duration, 1.0) if info.duration > 0 else 1.0
+        bar = "#" * int(frac * 30)
+        state = "stopping" if info.stopping else "moving"
+        sys.stderr.write(f"\r{state} [{bar:<30}] {frac:4.0%}  t {info.t:5.2f}/"
+                         f"{info.duration:.2f} s  error {math.degrees(info.tracking_error):5.2f}"
+                         " deg ")
+        sys.stderr.flush()
+
+    def done(self) -> None:
+        if self.enabled:
+            sys.stderr.write("\n")
+
+
+def _plan_data(robot: Robot, plan: MotionPlan) -> dict[str, Any]:
+    vr, ar = plan.peak_ratios()
+    return {"description": plan.description, "duration": plan.duration,
+            "planning_time": plan.planning_time, "samples_checked": plan.samples_checked,
+            "start": robot.arm.values_by_name(plan.start),
+            "target": robot.arm.values_by_name(plan.goal),
+            "peak_velocity_ratio": vr, "peak_acceleration_ratio": ar}
+
+
+def _plan_text(robot: Robot, plan: MotionPlan, head: str) -> str:
+    rows = [[n, fmt(math.degrees(a), 2), fmt(math.degrees(b), 2)]
+            for n, a, b in zip(robot.arm.joint_names, plan.start, plan.goal, strict=True)]
+    vr, ar = plan.peak_ratios()
+    return (f"{head}\nplan: {plan.description}, duration {plan.duration:.2f} s, planned in "
+            f"{plan.planning_time * 1000:.1f} ms ({plan.samples_checked} samples checked; peak "
+            f"velocity {vr:.0%}, acceleration {ar:.0%} of the limits)\n"
+            + table(["joint", "from [deg]", "to [deg]"], rows, right=[1, 2]))
+
+
+def _stream_text(report: MoveReport) -> tuple[dict[str, Any], str]:
+    res = report.result
+    if res is None:
+        return {"moved": False}, "dry run: nothing moved"
+    s = res.stats
+    data = {"moved": True, "final_joints": res.final.tolist(),
+            "loop_rate": s.achieved_rate, "jitter_p99": s.jitter_p99,
+            "max_tracking_error": float(np.max(s.max_tracking_error, initial=0.0)),
+            "settle_time": s.settle_time}
+    text = (f"streamed {s.cycles} cycles at {s.achieved_rate:.1f} Hz (target {s.rate_hz:g}), "
+            f"jitter p99 {s.jitter_p99 * 1000:.2f} ms, max tracking error "
+            f"{math.degrees(float(np.max(s.max_tracking_error, initial=0.0))):.2f} deg")
+    return data, text
+
+
+def _close(robot: Robot, args: argparse.Namespace) -> None:
+    """End a command: hold the arm where it is, unless --exit-policy asks otherwise.
+
+    The configured exit policy still applies to a second Ctrl-C during a motion.
+    """
+    from armctl.config.motion import ExitPolicy
+
+    robot.close(ExitPolicy(args.exit_policy) if getattr(args, "exit_policy", None)
+                else ExitPolicy.HOLD)
+
+
+def _run(args: argparse.Namespace, fn: Any) -> Any:
+    robot = _open(args)
+    progress = _Progress(not args.json and not getattr(args, "dry_run", False))
+    try:
+        result = fn(robot, progress)
+    except BaseException:
+        progress.done()
+        try:
+            _close(robot, args)
+        except ArmctlError as failure:  # keep the first error; report this one too
+            print(f"armctl: exit policy failed: {failure}", file=sys.stderr)
+        raise
+    progress.done()
+    _close(robot, args)
+    return robot, result
+
+
+# ---- commands -----------------------------------------------------------------------------------
+def cmd_move_to_pose(args: argparse.Namespace) -> int:
+    """``armctl move-to-pose``."""
+    from armctl.arm import load_arm
+    from armctl.cli.ik import build_goals
+
+    if args.xyz is None:
+        raise InputError("move-to-pose needs --xyz X Y Z (optionally with --rpy, --quat or "
+                         "--direction)")
+    (goal,) = build_goals(args, load_arm(args.config))
+
+    def go(robot: Robot, progress: _Progress) -> MoveReport:
+        plan, ik = robot.plan_pose(goal, linear=args.linear, speed=args.speed,
+                                   solver=args.solver)
+        head = (f"arm {robot.arm.name}: goal xyz {np.round(args.xyz, 4).tolist()} m "
+                f"({type(goal).__name__}); "
+                + (f"IK solver {ik.solver} ({ik.iterations} iterations, "
+                   f"{ik.position_error * 1000:.3f} mm)" if ik else "straight line"))
+        if not args.json:
+            print(_plan_text(robot, plan, head), flush=True)
+        if args.dry_run:
+            from armctl.robot import MoveReport
+
+            return MoveReport(plan, None, ik)
+        res = robot.execute(plan, progress)
+        reached = robot.arm.fk(res.final, goal.frame)
+        dp, dr = goal.errors(reached)
+        from armctl.robot import MoveReport
+
+        return MoveReport(plan, res, ik, reached, dp, dr)
+
+    robot, report = _run(args, go)
+    data: dict[str, Any] = {"plan": _plan_data(robot, report.plan),
+                            "solver": report.ik.solver if report.ik else None}
+    sdata, stext = _stream_text(report)
+    data.update(sdata)
+    text = stext
+    if report.reached is not None:
+        from armctl.spatial import matrix_to_rpy
+
+        rpy = np.degrees(matrix_to_rpy(report.reached[:3, :3]))
+        data.update({"reached_xyz": report.reached[:3, 3], "reached_rpy_deg": rpy,
+                     "position_error": report.position_error,
+                     "rotation_error": report.rotation_error})
+        text += (f"\nreached xyz {np.round(report.reached[:3, 3], 4).tolist()} m, rpy "
+                 f"{np.round(rpy, 1).tolist()} deg (FK of the joints read back)\n"
+                 f"remaining error {report.position_error * 1000:.2f} mm, "
+                 f"{math.degrees(report.rotation_error):.2f} deg")
+    emit(args, data, text)
+    return 0
+
+
+def cmd_move_joints(args: argparse.Namespace) -> int:
+    """``armctl move-joints``."""
+    from armctl.arm import load_arm
+
+    q = parse_angles(args.values, args.deg, load_arm(args.config), "move-joints values")
+    return _joint_command(args, lambda robot: q, "move to joint values")
+
+
+def cmd_named(args: argparse.Namespace) -> int:
+    """``armctl home`` and ``armctl park``."""
+    return _joint_command(args, lambda robot: robot.arm.named_pose(args.pose),
+                          f"move to the {args.pose!r} pose")
+
+
+def _joint_command(args: argparse.Namespace, target: Any, what: str) -> int:
+    def go(robot: Robot, progress: _Progress) -> MoveReport:
+        from armctl.robot import MoveReport
+
+        plan = robot.plan_joints(target(robot), args.speed, what)
+        if not args.json:
+            print(_plan_text(robot, plan, f"arm {robot.arm.name}"), flush=True)
+        if args.dry_run:
+            return MoveReport(plan)
+        res = robot.execute(plan, progress)
+        return MoveReport(plan, res, reached=robot.arm.fk(res.final))
+
+    robot, report = _run(args, go)
+    data = {"plan": _plan_data(robot, report.plan)}
+    sdata, text = _stream_text(report)
+    data.update(sdata)
+    emit(args, data, text)
+    return 0
+
+
+def cmd_play(args: argparse.Namespace) -> int:
+    """``armctl play``."""
+    from armctl.arm import load_arm
+    from armctl.motion import Interpolation, PlaybackOptions, load_keyframes
+
+    arm = load_arm(args.config)
+    program = load_keyframes(args.file, arm)
+    options = PlaybackOptions(
+        interpolation=Interpolation(args.interpolation), blend=not args.stop_at_keyframes,
+        speed=args.speed, loops=args.loop, reverse=args.reverse, ease_in=not args.no_ease_in,
+        use_times=not args.ignore_times)
+    if args.preview:
+        args.dry_run = True
+
+    def go(robot: Robot, progress: _Progress) -> MoveReport:
+        from armctl.robot import MoveReport
+
+        cal = robot.calibration_hash()
+        if program.calibration and cal and program.calibration != cal:
+            print(f"armctl: warning: the keyframes were taught with calibration "
+                  f"{program.calibration}, the arm now uses {cal}", file=sys.stderr)
+        plan = robot.plan_program(program, options, args.solver)
+        if not args.json:
+            print(_plan_text(robot, plan, f"arm {robot.arm.name}: play {args.file}"), flush=True)
+        if args.preview:
+            _preview(robot, plan, args.preview)
+        if args.dry_run:
+            return MoveReport(plan)
+        res = robot.execute(plan, progress)
+        return MoveReport(plan, res, reached=robot.arm.fk(res.final))
+
+    robot, report = _run(args, go)
+    data: dict[str, Any] = {"plan": _plan_data(robot, report.plan),
+                            "keyframes": [{"name": w.name, "time": w.time}
+                                          for w in report.plan.waypoints],
+                            "events": [{"time": e.time, "kind": e.kind, "name": e.name,
+                                        "value": e.value} for e in report.plan.events]}
+    sdata, text = _stream_text(report)
+    data.update(sdata)
+    if args.preview:
+        data["preview"] = args.preview
+        text += f"\npreview written to {args.preview}"
+    emit(args, data, text)
+    return 0
+
+
+def _preview(robot: Robot, plan: MotionPlan, path: str) -> None:
+    """Joint positions and velocities over time, with keyframes marked (matplotlib, headless)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as exc:  # pragma: no cover - optional dependency
+        raise InputError("--preview needs matplotlib (pip install 'armctl[render]')") from exc
+    ts = np.linspace(0.0, plan.duration, max(2, int(plan.duration * 200)))
+    q, qd, _ = plan.trajectory.sample_many(ts)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    for i, name in enumerate(robot.arm.joint_names):
+        ax1.plot(ts, np.degrees(q[:, i]), label=name)
+        ax2.plot(ts, np.degrees(qd[:, i]))
+    for w in plan.waypoints:
+        ax1.axvline(w.time, color="0.8", lw=0.8, zorder=0)
+    ax1.set_ylabel("position [deg]")
+    ax2.set_ylabel("velocity [deg/s]")
+    ax2.set_xlabel("time [s]")
+    ax1.legend(fontsize=7, ncol=3)
+    ax1.set_title(plan.description)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+TEACH_HELP = """commands (then Enter):
+  <empty>                 record a keyframe at the present pose
+  k [NAME] [dwell=S] [gripper=V|g]   record a named keyframe (g: the gripper's present value)
+  g VALUE                 record a gripper event (VALUE in rad or m) at the present pose
+  u                       undo the last keyframe
+  c RATE [SECONDS]        continuous recording at RATE Hz (until Enter, or for SECONDS)
+  j JOINT DELTA           jog one joint (DELTA in deg for rotary joints, mm for prismatic)
+  x DX DY DZ              jog the tool along a straight line [mm]
+  limp | stiff            torque off for the released joints / back on holding the pose
+  p                       print the present joints and tool position
+  q                       finish (torque back on, holding the pose)"""
+
+
+def cmd_teach(args: argparse.Namespace) -> int:
+    """``armctl teach``: an interactive, line-based teach session."""
+    from armctl.motion import AngleUnit
+    from armctl.robot.teach import TeachSession
+
+    robot = _open(args)
+    try:
+        session = TeachSession(robot, args.output, args.release,
+                               AngleUnit.DEG if args.deg else AngleUnit.RAD)
+        session.start(limp=not args.stiff)
+        say = (lambda s: None) if args.json else (lambda s: print(s, flush=True))
+        say(f"teaching {robot.arm.name} into {args.output}; torque off for: "
+            f"{', '.join(session.release) if session.limp else '(none)'}\n"
+            "  warning: released joints fall under gravity; support the arm\n" + TEACH_HELP)
+        try:
+            _teach_loop(session, robot, say)
+        except KeyboardInterrupt:
+            say("\ninterrupted: keeping what was recorded")
+        finally:
+            session.finish()
+    finally:
+        _close(robot, args)
+    n = len(session.program.keyframes)
+    emit(args, {"file": args.output, "keyframes": n},
+         f"{n} keyframes in {args.output}; torque on, holding the present pose")
+    return 0
+
+
+def _teach_loop(session: Any, robot: Robot, say: Any) -> None:
+    import threading
+
+    from armctl.config.schema import JointType
+
+    while True:
+        line = sys.stdin.readline()
+        if not line:
+            return
+        parts = line.split()
+        if not parts:
+            kf = session.record()
+            say(f"keyframe {len(session.program.keyframes)} recorded")
+            continue
+        cmd, rest = parts[0], parts[1:]
+        try:
+            if cmd == "q":
+                return
+            if cmd == "help":
+                say(TEACH_HELP)
+            elif cmd == "k":
+                name = next((r for r in rest if "=" not in r), "")
+                opts = dict(r.split("=", 1) for r in rest if "=" in r)
+                grip = opts.get("gripper")
+                kf = session.record(name, float(opts.get("dwell", 0.0)),
+                                    None if grip in (None, "g") else float(grip),
+                                    with_gripper=grip == "g")
+                say(f"keyframe {len(session.program.keyframes)} {kf.name!r} recorded")
+            elif cmd == "g":
+                kf = session.record(gripper=float(rest[0]))
+                say(f"gripper event {kf.gripper} recorded")
+            elif cmd == "u":
+                say("removed the last keyframe" if session.undo() else "nothing to undo")
+            elif cmd == "c":
+                rate = float(rest[0]) if rest else 20.0
+                duration = float(rest[1]) if len(rest) > 1 else None
+                stop = threading.Event()
+                worker = threading.Thread(target=session.record_continuous,
+                                          args=(rate, stop, duration), daemon=True)
+                worker.start()
+                say(f"recording at {rate:g} Hz; press Enter to stop")
+                if duration is None:
+                    sys.stdin.readline()
+                    stop.set()
+                worker.join()
+                say(f"{len(session.program.keyframes)} keyframes in the file")
+            elif cmd == "j":
+                joint, delta = rest[0], float(rest[1])
+                kind = robot.arm.joint_types[robot.arm.joint_index(joint)]
+                step = delta / 1000 if kind is JointType.PRISMATIC else math.radians(delta)
+                session.jog_joint(joint, step)
+                say(f"{joint} moved")
+            elif cmd == "x":
+                session.jog_cartesian(np.array([float(v) for v in rest[:3]]) / 1000)
+                say(f"tool at {np.round(robot.pose()[:3, 3], 4).tolist()} m")
+            elif cmd == "limp":
+                session.set_limp(True)
+                say(f"torque off: {', '.join(session.release)}")
+            elif cmd == "stiff":
+                session.set_limp(False)
+                say("torque on, holding the present pose")
+            elif cmd == "p":
+                q = robot.joints()
+                say(f"joints [deg] {np.round(np.degrees(q), 1).tolist()}; tool "
+                    f"{np.round(robot.pose()[:3, 3], 4).tolist()} m")
+            else:
+                say(f"unknown command {cmd!r}; type 'help'")
+        except (ValueError, IndexError) as exc:
+            say(f"could not read {line.strip()!r}: {exc}; type 'help'")
+        except InputError as exc:
+            say(f"error: {exc}")

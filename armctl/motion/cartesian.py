@@ -1,0 +1,218 @@
+"""Straight-line (Cartesian) moves: position along a line, orientation by SLERP, IK per sample.
+
+The line is cut into samples no more than ``max_step`` apart (and ``max_rotation_step`` in
+orientation). Each sample is solved by IK seeded with the previous solution and without random
+restarts, so the arm stays on one branch; a sample that fails, or a joint that jumps between two
+samples, stops planning and reports how far along the path it got. The joint path is then a C2
+quintic spline over the path parameter ``s`` and is timed with a minimum-jerk ``s(t)`` scaled to
+the velocity, acceleration and jerk limits. Nothing moves unless the whole path is planned and
+checked.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.ik import DirectionGoal, Goal, IKOptions, PoseGoal, PositionGoal
+from armctl.kinematics.model import KinematicModel
+from armctl.motion.errors import PathError
+from armctl.motion.interpolate import Interpolation, spline_through
+from armctl.motion.limits import MotionLimits, check_trajectory
+from armctl.motion.plan import MotionPlan, Waypoint
+from armctl.motion.profiles import quintic_segment
+from armctl.motion.trajectory import PathTrajectory, PiecewisePolynomial
+from armctl.spatial import matrix_to_quat, quat_to_matrix, slerp
+
+__all__ = ["LineOptions", "interpolate_goal", "plan_line"]
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class LineOptions:
+    """Resolution and tolerances of a straight-line move.
+
+    Attributes:
+        max_step: Largest distance between IK samples along the line [m].
+        max_rotation_step: Largest rotation between IK samples [rad].
+        max_joint_step: Largest change of any joint between two samples [rad]/[m]; more
+            means the IK jumped to another branch or passed a singularity.
+        path_tolerance: Largest distance of the tool from the line between samples [m].
+        solver: IK solver name.
+        ik_iterations: Iteration budget per sample.
+    """
+
+    max_step: float = 0.005
+    max_rotation_step: float = 0.05
+    max_joint_step: float = 0.25
+    path_tolerance: float = 0.001
+    solver: str = "auto"
+    ik_iterations: int = 100
+
+
+def interpolate_goal(start: Array, goal: Goal, s: float) -> Goal:
+    """The goal at fraction ``s`` of the straight line from the start pose ``(4, 4)`` to ``goal``.
+
+    Position moves on the line; a full orientation is SLERPed; a direction turns on the great
+    circle from the start direction of the tool axis.
+    """
+    p0 = start[:3, 3]
+    if isinstance(goal, PoseGoal):
+        pos = p0 + s * (goal.position - p0)
+        quat = slerp(matrix_to_quat(start[:3, :3]), matrix_to_quat(goal.rotation), s)
+        pose = np.eye(4)
+        pose[:3, :3] = quat_to_matrix(quat)
+        pose[:3, 3] = pos
+        return replace(goal, pose=pose)
+    if isinstance(goal, DirectionGoal):
+        d0 = start[:3, :3] @ goal.axis
+        return replace(goal, position=p0 + s * (goal.position - p0),
+                       direction=_turn(d0, goal.direction, s))
+    if isinstance(goal, PositionGoal):
+        return replace(goal, position=p0 + s * (goal.position - p0))
+    raise PathError(0.0, f"a straight line needs a position, direction or pose goal, not "
+                         f"{type(goal).__name__}")
+
+
+def _turn(a: Array, b: Array, s: float) -> Array:
+    """Unit vector a fraction ``s`` of the way from ``a`` to ``b`` on the great circle."""
+    c = float(np.clip(a @ b, -1.0, 1.0))
+    angle = math.acos(c)
+    if angle < 1e-9:
+        return b.copy()
+    axis = np.cross(a, b)
+    if np.linalg.norm(axis) < 1e-9:  # opposite: any perpendicular axis
+        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    axis = axis / np.linalg.norm(axis)
+    th = s * angle
+    return a * math.cos(th) + np.cross(axis, a) * math.sin(th) + axis * (axis @ a) * (
+        1 - math.cos(th))
+
+
+def _rotation_span(start: Array, goal: Goal) -> float:
+    if isinstance(goal, PoseGoal):
+        d = goal.rotation @ start[:3, :3].T
+        return math.acos(float(np.clip((np.trace(d) - 1.0) / 2.0, -1.0, 1.0)))
+    if isinstance(goal, DirectionGoal):
+        return math.acos(float(np.clip((start[:3, :3] @ goal.axis) @ goal.direction, -1, 1)))
+    return 0.0
+
+
+def _at_limit(model: KinematicModel, q: Array) -> str:
+    near = np.minimum(np.abs(q - model.lower), np.abs(model.upper - q)) < 1e-3
+    names = [model.joint_names[i] for i in np.flatnonzero(near)]
+    return f"; at the limit: {', '.join(names)}" if names else ""
+
+
+def _solve_path(model: KinematicModel, q0: Array, start: Array, goal: Goal,
+                n: int, options: LineOptions) -> Array:
+    ik_opts = IKOptions(max_iterations=options.ik_iterations, restarts=0, time_limit=0.5)
+    qs = [q0]
+    for i in range(1, n + 1):
+        s = i / n
+        res = model.ik(interpolate_goal(start, goal, s), q0=qs[-1],  # type: ignore[attr-defined]
+                       solver=options.solver, options=ik_opts)
+        if not res.success:
+            raise PathError((i - 1) / n, f"no IK solution near the line ({res.status.value}, "
+                            f"position error {res.position_error * 1000:.1f} mm, rotation error "
+                            f"{math.degrees(res.rotation_error):.1f} deg"
+                            f"{_at_limit(model, np.asarray(res.q))})")
+        q = np.asarray(res.q, dtype=float)
+        step = np.abs(q - qs[-1])
+        j = int(np.argmax(step))
+        if step[j] > options.max_joint_step:
+            raise PathError((i - 1) / n, f"joint {model.joint_names[j]!r} would jump by "
+                            f"{step[j]:.2f} between two samples (IK branch change or "
+                            f"singularity)", model.joint_names[j])
+        qs.append(q)
+    return np.stack(qs)
+
+
+def _line_deviation(model: KinematicModel, path: PiecewisePolynomial, start: Array,
+                    goal: Goal, frame: str | None, n: int) -> tuple[float, float]:
+    """Largest distance [m] of the frame from the line, and where (fraction of the path)."""
+    s = (np.arange(n) + 0.5) / n
+    q, _, _ = path.sample_many(s)
+    pts = model.fk_batch(q, frame)[:, :3, 3]
+    p0 = start[:3, 3]
+    target = getattr(goal, "position", p0)
+    seg = np.asarray(target) - p0
+    length = float(seg @ seg)
+    u = np.clip(((pts - p0) @ seg) / length, 0.0, 1.0) if length > 0 else np.zeros(n)
+    dist = np.linalg.norm(pts - (p0 + u[:, None] * seg), axis=1)
+    k = int(np.argmax(dist))
+    return float(dist[k]), float(s[k])
+
+
+def plan_line(model: KinematicModel, q0: npt.ArrayLike, goal: Goal, limits: MotionLimits,
+              speed: float = 1.0, options: LineOptions = LineOptions()) -> MotionPlan:
+    """A straight-line tool move from the present joints ``q0`` to ``goal``, fully checked.
+
+    Args:
+        model: The arm (an :class:`armctl.arm.Arm`, which has ``ik``).
+        q0: Present joint values ``(dof,)``.
+        goal: Where the goal's frame must go (position, direction or pose goal).
+        limits: The arm's hard limits.
+        speed: Speed factor in (0, 1].
+        options: Sampling resolution and tolerances.
+
+    Returns:
+        The checked plan.
+
+    Raises:
+        PathError: With the fraction of the path that could be planned and why it fails.
+        LimitViolation: If the timed path would exceed a limit.
+    """
+    t0 = time.perf_counter()
+    scaled = limits.scaled(speed)
+    q_start = np.asarray(q0, dtype=float)
+    start = model.fk(q_start, goal.frame)
+    dist = float(np.linalg.norm(getattr(goal, "position", start[:3, 3]) - start[:3, 3]))
+    n = max(8, math.ceil(dist / options.max_step),
+            math.ceil(_rotation_span(start, goal) / options.max_rotation_step))
+    for _ in range(3):
+        qs = _solve_path(model, q_start, start, goal, n, options)
+        knots = np.linspace(0.0, 1.0, n + 1)
+        ends = (qs[1] - qs[0]) * n, (qs[-1] - qs[-2]) * n
+        path = spline_through(knots, qs, Interpolation.MIN_JERK, ends[0], ends[1])
+        dev, where = _line_deviation(model, path, start, goal, goal.frame, 4 * n)
+        if dev <= options.path_tolerance:
+            break
+        n *= 2
+    else:
+        raise PathError(where, f"the tool would leave the line by {dev * 1000:.1f} mm between "
+                        "IK samples (the path bends sharply near a singularity)")
+    timing = _timing(path, scaled)
+    traj = PathTrajectory(path, timing)
+    checked = check_trajectory(traj, limits, check_jerk=True, hint="lower the speed factor")
+    wps = (Waypoint(0.0, q_start, "start"), Waypoint(traj.duration, qs[-1], "goal"))
+    return MotionPlan(traj, limits, (), wps, time.perf_counter() - t0, checked,
+                      f"straight line, {dist * 1000:.0f} mm, {n} IK samples",
+                      {"samples": n, "line_deviation": dev})
+
+
+def _timing(path: PiecewisePolynomial, limits: MotionLimits) -> PiecewisePolynomial:
+    """A minimum-jerk ``s(t)`` from 0 to 1, as short as the limits allow.
+
+    Velocity, acceleration and jerk count; the jerk is estimated by differences of the sampled
+    acceleration.
+    """
+    one = np.ones(1)
+    zero = np.zeros(1)
+    unit = PiecewisePolynomial([0.0, 1.0], quintic_segment(zero, zero, zero, one, zero, zero,
+                                                           1.0)[None])
+    nsamp = max(1000, 40 * (path.breakpoints().size - 1))
+    ts = np.linspace(0.0, 1.0, nsamp)
+    _, qd, qdd = PathTrajectory(path, unit).sample_many(ts)
+    jerk = np.diff(qdd, axis=0) / (ts[1] - ts[0])
+    ratio = max(float(np.max(np.abs(qd) / limits.velocity)),
+                math.sqrt(float(np.max(np.abs(qdd) / limits.acceleration))),
+                float(np.cbrt(np.max(np.abs(jerk) / limits.jerk))), 1e-3)
+    t_total = ratio * 1.02
+    c = quintic_segment(zero, zero, zero, one, zero, zero, t_total)
+    return PiecewisePolynomial([0.0, t_total], c[None])

@@ -1,0 +1,56 @@
+"""Errors of motion planning: limits that a plan would exceed, paths that cannot be followed."""
+
+from __future__ import annotations
+
+from armctl.errors import PlanningError
+
+__all__ = ["LimitViolation", "PathError"]
+
+
+class LimitViolation(PlanningError):
+    """A planned trajectory would exceed a joint limit; nothing was moved.
+
+    Args:
+        joint: The joint's name.
+        kind: ``"position"``, ``"velocity"``, ``"acceleration"`` or ``"jerk"``.
+        value: The planned value (signed) in SI units.
+        bound: The limit it exceeds (positive for velocity and above, the crossed position limit
+            for position).
+        time: When along the trajectory [s].
+        hint: How to fix it.
+    """
+
+    def __init__(self, joint: str, kind: str, value: float, bound: float, time: float,
+                 hint: str = ""):
+        self.joint = joint
+        self.kind = kind
+        self.value = value
+        self.bound = bound
+        self.time = time
+        self.details = {"joint": joint, "limit": kind, "value": value, "bound": bound,
+                        "time": time}
+        text = (f"planned {kind} of joint {joint!r} would be {value:.6g} at t={time:.3f} s, "
+                f"beyond its limit {bound:.6g}; nothing was moved")
+        if hint:
+            text += f". {hint}"
+        super().__init__(text)
+
+
+class PathError(PlanningError):
+    """A Cartesian path cannot be followed; the fraction that could be planned is attached.
+
+    Args:
+        fraction: Fraction of the path [0-1] planned before the failure.
+        reason: What failed there (IK, a joint limit, a jump between IK branches).
+        joint: The joint involved, when one is.
+    """
+
+    def __init__(self, fraction: float, reason: str, joint: str | None = None):
+        self.fraction = fraction
+        self.reason = reason
+        self.joint = joint
+        self.details = {"fraction": fraction, "reason": reason, "joint": joint}
+        super().__init__(
+            f"straight-line path planned to {fraction:.0%}, fails at s={fraction:.2f}: {reason}; "
+            "nothing was moved. Try a joint-space move (without --linear), or a goal closer to "
+            "the arm's workspace centre")

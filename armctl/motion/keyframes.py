@@ -1,0 +1,101 @@
+"""Keyframe programs in memory: joint-vector or Cartesian keyframes with dwell and gripper values.
+
+The file format is read and written by :mod:`armctl.motion.keyframe_file`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from enum import Enum
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.errors import InputError, KeyPath
+
+__all__ = ["AngleUnit", "Keyframe", "KeyframeProgram"]
+
+Array = npt.NDArray[np.float64]
+
+
+class AngleUnit(Enum):
+    """The unit angles are written in, in a keyframe file (lengths are always metres)."""
+
+    RAD = "rad"
+    DEG = "deg"
+
+
+@dataclass(frozen=True)
+class Keyframe:
+    """One keyframe: either joint values or a tool pose.
+
+    Attributes:
+        q: Joint values [rad]/[m] in the order of :attr:`KeyframeProgram.joints`, or ``None``
+            for a Cartesian keyframe.
+        pose: ``(4, 4)`` tool pose in the base frame [m], solved by IK at play time, or ``None``.
+        orientation: Whether a pose keyframe constrains the orientation too (``False``: only
+            the position counts, as for 5-joint arms).
+        name: Optional name.
+        dwell: Time to stay at this keyframe [s]; > 0 makes the motion stop here.
+        gripper: Gripper position to command at this keyframe [rad]/[m] (``None``: unchanged).
+        time: Recording time stamp [s] (continuous recordings), or ``None``.
+        where: Where the keyframe was read from, for error messages.
+    """
+
+    q: tuple[float, ...] | None = None
+    pose: Array | None = field(default=None, compare=False)
+    orientation: bool = True
+    name: str = ""
+    dwell: float = 0.0
+    gripper: float | None = None
+    time: float | None = None
+    where: KeyPath = field(default=KeyPath(), compare=False)
+
+    def __post_init__(self) -> None:
+        if (self.q is None) == (self.pose is None):
+            raise InputError("a keyframe needs exactly one of joint values (q) or a pose")
+        if self.dwell < 0:
+            raise InputError(f"keyframe dwell must not be negative, got {self.dwell}")
+
+    @property
+    def label(self) -> str:
+        """The name, or ``"#i"`` style placeholder when unnamed."""
+        return self.name or "(unnamed)"
+
+
+@dataclass(frozen=True)
+class KeyframeProgram:
+    """A sequence of keyframes for one arm.
+
+    Attributes:
+        arm: The arm's name.
+        joints: Names of the joints whose values joint keyframes give, in order.
+        keyframes: The keyframes, in play order.
+        calibration: Hash of the calibration the joint values were recorded with, if known.
+        frame: The frame Cartesian keyframes place (the tool when empty).
+        angle_unit: Unit used for angles when the program is written to a file.
+        description: Free text.
+    """
+
+    arm: str
+    joints: tuple[str, ...]
+    keyframes: tuple[Keyframe, ...] = ()
+    calibration: str | None = None
+    frame: str = ""
+    angle_unit: AngleUnit = AngleUnit.RAD
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        for k, kf in enumerate(self.keyframes):
+            if kf.q is not None and len(kf.q) != len(self.joints):
+                raise InputError(f"keyframe {k} ({kf.label}) has {len(kf.q)} joint values; the "
+                                 f"program lists {len(self.joints)} joints")
+
+    def append(self, keyframe: Keyframe) -> KeyframeProgram:
+        """A copy with one more keyframe at the end."""
+        return replace(self, keyframes=(*self.keyframes, keyframe))
+
+    @property
+    def timed(self) -> bool:
+        """Whether every keyframe has a time stamp (a continuous recording)."""
+        return bool(self.keyframes) and all(kf.time is not None for kf in self.keyframes)

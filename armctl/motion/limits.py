@@ -1,0 +1,187 @@
+"""Joint limits for motion, the speed factor, and the check of a whole trajectory before motion."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.config.schema import JointType
+from armctl.errors import InputError
+from armctl.kinematics.model import KinematicModel
+from armctl.motion.errors import LimitViolation
+from armctl.motion.trajectory import Chain, RuckigTrajectory, TimeScaled, Trajectory
+
+__all__ = [
+    "DEFAULT_ACCELERATION",
+    "DEFAULT_VELOCITY",
+    "MotionLimits",
+    "check_trajectory",
+]
+
+Array = npt.NDArray[np.float64]
+
+#: Velocity used for a joint whose YAML gives none: [rad/s] for rotary, [m/s] for prismatic.
+DEFAULT_VELOCITY = {"rotary": 1.0, "prismatic": 0.05}
+#: Acceleration used for a joint whose YAML gives none: [rad/s^2] / [m/s^2].
+DEFAULT_ACCELERATION = {"rotary": 3.0, "prismatic": 0.15}
+
+#: Relative slack allowed by the check, for rounding in the planners [-].
+_REL_TOL = 1e-6
+_POS_TOL = 1e-9
+_POSITION_HINT = ("The path swings outside the joint's range: add a keyframe there, stop at "
+                  "keyframes, or use linear interpolation")
+
+
+@dataclass(frozen=True)
+class MotionLimits:
+    """Per-joint limits used to plan and check motion, all ``(dof,)`` in SI units.
+
+    Attributes:
+        names: Joint names.
+        lower: Lowest position [rad]/[m] (``-inf`` for continuous joints).
+        upper: Highest position.
+        velocity: Highest speed [rad/s]/[m/s].
+        acceleration: Highest acceleration [rad/s^2]/[m/s^2].
+        jerk: Highest jerk [rad/s^3]/[m/s^3]; ``inf`` where not configured.
+    """
+
+    names: tuple[str, ...]
+    lower: Array
+    upper: Array
+    velocity: Array
+    acceleration: Array
+    jerk: Array
+
+    @property
+    def dof(self) -> int:
+        """Number of joints."""
+        return len(self.names)
+
+    @classmethod
+    def from_model(cls, model: KinematicModel) -> MotionLimits:
+        """The limits of an arm; joints without velocity/acceleration limits get defaults.
+
+        Defaults are :data:`DEFAULT_VELOCITY` and :data:`DEFAULT_ACCELERATION`; a joint without a
+        jerk limit is planned with unbounded jerk.
+        """
+        prismatic = np.array([t is JointType.PRISMATIC for t in model.joint_types])
+        vdef = np.where(prismatic, DEFAULT_VELOCITY["prismatic"], DEFAULT_VELOCITY["rotary"])
+        adef = np.where(prismatic, DEFAULT_ACCELERATION["prismatic"],
+                        DEFAULT_ACCELERATION["rotary"])
+        v = np.where(np.isfinite(model.velocity_limits), model.velocity_limits, vdef)
+        a = np.where(np.isfinite(model.acceleration_limits), model.acceleration_limits, adef)
+        j = np.where(np.isfinite(model.jerk_limits), model.jerk_limits, np.inf)
+        return cls(tuple(model.joint_names), np.array(model.lower, dtype=float),
+                   np.array(model.upper, dtype=float), v, a, j)
+
+    def scaled(self, speed: float) -> MotionLimits:
+        """Limits for a speed factor in (0, 1]: velocity x s, acceleration x s^2, jerk x s^3.
+
+        Scaling this way slows every planned motion down uniformly in time by ``1 / speed``.
+
+        Raises:
+            InputError: If ``speed`` is not in (0, 1].
+        """
+        if not 0.0 < speed <= 1.0:
+            raise InputError(
+                f"speed factor {speed} is outside (0, 1] for a move timed by the joint limits; "
+                "speeds above 1 would exceed the limits (they apply only to recorded, timed "
+                "keyframes)")
+        return MotionLimits(self.names, self.lower, self.upper, self.velocity * speed,
+                            self.acceleration * speed**2, self.jerk * speed**3)
+
+    def subset(self, index: npt.ArrayLike) -> MotionLimits:
+        """The limits of some joints only."""
+        idx = np.asarray(index, dtype=int)
+        return MotionLimits(tuple(self.names[i] for i in idx), self.lower[idx], self.upper[idx],
+                            self.velocity[idx], self.acceleration[idx], self.jerk[idx])
+
+    def check_position(self, q: npt.ArrayLike, context: str) -> None:
+        """Raise :class:`LimitViolation` if ``q`` lies outside the position limits."""
+        arr = np.asarray(q, dtype=float)
+        bad = np.flatnonzero((arr < self.lower - _POS_TOL) | (arr > self.upper + _POS_TOL))
+        if bad.size:
+            i = int(bad[0])
+            bound = self.lower[i] if arr[i] < self.lower[i] else self.upper[i]
+            raise LimitViolation(self.names[i], "position", float(arr[i]), float(bound), 0.0,
+                                 f"({context}) choose a target inside the joint limits")
+
+
+def _ruckig_parts(traj: Trajectory, offset: float = 0.0, factor: float = 1.0
+                  ) -> list[tuple[float, float, RuckigTrajectory]]:
+    if isinstance(traj, RuckigTrajectory):
+        return [(offset, factor, traj)]
+    if isinstance(traj, TimeScaled):
+        return _ruckig_parts(traj.inner, offset, factor * traj.factor)
+    if isinstance(traj, Chain):
+        out = []
+        for part, start in zip(traj.parts, traj.offsets, strict=False):
+            out += _ruckig_parts(part, offset + float(start) * factor, factor)
+        return out
+    return []
+
+
+def check_trajectory(traj: Trajectory, limits: MotionLimits, dt: float = 0.002,
+                     check_jerk: bool = False, hint: str = "") -> int:
+    """Check every sample of a trajectory against the limits before anything moves.
+
+    The trajectory is sampled every ``dt`` and at every breakpoint; Ruckig pieces are also
+    checked with their exact position extrema (the free Ruckig ignores position limits).
+
+    Args:
+        traj: The trajectory.
+        limits: The hard limits (not the speed-scaled ones).
+        dt: Sampling step [s].
+        check_jerk: Also check jerk, by finite differences of the acceleration samples.
+        hint: Appended to the error message, e.g. how to make the motion feasible.
+
+    Returns:
+        The number of samples checked.
+
+    Raises:
+        LimitViolation: For the first sample beyond a limit, naming the joint, the limit and the
+            time.
+    """
+    n = max(2, math.ceil(traj.duration / dt) + 1)
+    ts = np.unique(np.concatenate([np.linspace(0.0, traj.duration, n), traj.breakpoints()]))
+    q, qd, qdd = traj.sample_many(ts)
+    _first_violation(ts, q, limits.lower, limits.upper, limits, "position", _POSITION_HINT)
+    vmax = limits.velocity * (1 + _REL_TOL) + 1e-12
+    _first_violation(ts, qd, -vmax, vmax, limits, "velocity", hint)
+    amax = limits.acceleration * (1 + _REL_TOL) + 1e-12
+    _first_violation(ts, qdd, -amax, amax, limits, "acceleration", hint)
+    if check_jerk and np.any(np.isfinite(limits.jerk)) and ts.size > 2:
+        # Mid-point finite differences of the acceleration; breakpoints (where jerk may jump)
+        # are separate samples, so a jump does not smear across them.
+        dts = np.diff(ts)
+        keep = dts > 1e-6
+        jerk = np.diff(qdd, axis=0)[keep] / dts[keep, None]
+        tj = (ts[:-1] + ts[1:])[keep] / 2
+        jmax = limits.jerk * 1.02 + 1e-9
+        _first_violation(tj, jerk, -jmax, jmax, limits, "jerk", hint)
+    for start, _factor, part in _ruckig_parts(traj):
+        lo, hi = part.position_extrema()
+        bad_lo = np.flatnonzero(lo < limits.lower - _POS_TOL)
+        bad_hi = np.flatnonzero(hi > limits.upper + _POS_TOL)
+        for bad, vals, bounds in ((bad_lo, lo, limits.lower), (bad_hi, hi, limits.upper)):
+            if bad.size:
+                i = int(bad[0])
+                raise LimitViolation(limits.names[i], "position", float(vals[i]),
+                                     float(bounds[i]), start, _POSITION_HINT)
+    return int(ts.size)
+
+
+def _first_violation(ts: Array, values: Array, lo: Array, hi: Array, limits: MotionLimits,
+                     kind: str, hint: str) -> None:
+    tol = _POS_TOL if kind == "position" else 0.0
+    bad = (values < lo - tol) | (values > hi + tol)
+    if not bad.any():
+        return
+    k, i = np.argwhere(bad)[0]
+    v = float(values[k, i])
+    bound = float(lo[i] if v < lo[i] else hi[i])
+    raise LimitViolation(limits.names[int(i)], kind, v, bound if kind == "position" else abs(bound),
+                         float(ts[k]), hint)

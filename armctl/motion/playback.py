@@ -1,0 +1,265 @@
+"""Plan the playback of a keyframe program: order, loops, ease-in, dwell, gripper events.
+
+The program is turned into a list of stops (the first and last keyframe, every keyframe with a
+dwell or a gripper change, and every keyframe when blending is off). Between two stops the
+keyframes are joined by the chosen interpolation without stopping; at a stop the arm rests for
+the dwell, and a gripper change is a separate gripper-only move while the arm holds still.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.config.schema import JointRole
+from armctl.errors import InputError, NoSolutionError
+from armctl.kinematics.model import KinematicModel
+from armctl.motion.errors import LimitViolation
+from armctl.motion.interpolate import Interpolation, plan_run
+from armctl.motion.keyframes import KeyframeProgram
+from armctl.motion.limits import MotionLimits, check_trajectory
+from armctl.motion.plan import Event, MotionPlan, Waypoint
+from armctl.motion.profiles import ruckig_move
+from armctl.motion.trajectory import Chain, Hold, Trajectory
+
+__all__ = ["IKFunction", "PlaybackOptions", "plan_program", "resolve_keyframes"]
+
+Array = npt.NDArray[np.float64]
+
+#: Solves a tool pose ``(4, 4)`` for joint values, seeded with ``(dof,)``; the flag says whether
+#: the orientation counts (else only the position). Raises :class:`NoSolutionError` when the pose
+#: cannot be reached.
+IKFunction = Callable[[Array, Array, bool], Array]
+
+_SAME = 1e-9
+
+
+@dataclass(frozen=True)
+class PlaybackOptions:
+    """How to play a keyframe program.
+
+    Attributes:
+        interpolation: How keyframes are joined.
+        blend: Pass through keyframes without stopping (stops remain at dwells, gripper
+            changes and the ends).
+        speed: Speed factor: 0.1-4 for recorded (timed) programs, where it scales the recorded
+            time; (0, 1] otherwise, where it scales the joint limits.
+        loops: How many times to play the program (>= 1).
+        reverse: Play the keyframes in reverse order.
+        ease_in: Start with a slow move from the present pose to the first keyframe.
+        ease_in_speed: Speed factor of that move, in (0, 1] (never faster than ``speed`` for
+            a program timed by the limits).
+        use_times: Follow the recorded time stamps when every keyframe has one.
+    """
+
+    interpolation: Interpolation = Interpolation.MIN_JERK
+    blend: bool = True
+    speed: float = 1.0
+    loops: int = 1
+    reverse: bool = False
+    ease_in: bool = True
+    ease_in_speed: float = 0.3
+    use_times: bool = True
+
+    def __post_init__(self) -> None:
+        if not 0.1 <= self.speed <= 4.0:
+            raise InputError(f"speed factor {self.speed} is outside 0.1 to 4")
+        if self.loops < 1:
+            raise InputError(f"loop count must be at least 1, got {self.loops}")
+        if not 0.0 < self.ease_in_speed <= 1.0:
+            raise InputError(f"ease-in speed {self.ease_in_speed} is outside (0, 1]")
+
+
+@dataclass(frozen=True)
+class _Stop:
+    q: Array
+    name: str
+    dwell: float
+    gripper: float | None
+    time: float | None
+    stop: bool
+
+
+def resolve_keyframes(program: KeyframeProgram, model: KinematicModel, q_start: npt.ArrayLike,
+                      ik: IKFunction | None = None) -> list[Array]:
+    """Full joint vectors ``(dof,)`` for every keyframe, in program order.
+
+    Joints the program does not list keep their value from ``q_start`` (gripper joints follow
+    the keyframes' ``gripper`` values: the value a keyframe arrives with is the one in force
+    before it). Cartesian keyframes are solved by ``ik`` seeded with the previous keyframe.
+
+    Raises:
+        InputError: For a Cartesian keyframe without an IK function.
+        NoSolutionError: If a Cartesian keyframe cannot be reached (names the keyframe).
+    """
+    q = np.array(q_start, dtype=float)
+    idx = [model.joint_index(j) for j in program.joints]
+    grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
+    out = []
+    for k, kf in enumerate(program.keyframes):
+        cur = q.copy()
+        if kf.q is not None:
+            cur[idx] = kf.q
+        else:
+            if ik is None:
+                raise InputError(f"keyframe {k} ({kf.label}) is a pose and needs IK")
+            try:
+                sol = np.asarray(ik(np.asarray(kf.pose), q, kf.orientation), dtype=float)
+            except NoSolutionError as exc:
+                raise NoSolutionError(f"keyframe {k} ({kf.label}, {kf.where.where()}): the pose "
+                                      f"cannot be reached: {exc}") from exc
+            keep = cur[grip].copy()
+            cur = sol.copy()
+            cur[grip] = keep
+        out.append(cur)
+        q = cur
+        if kf.gripper is not None:
+            if not grip:
+                raise InputError(f"keyframe {k} ({kf.label}) sets a gripper value but arm "
+                                 f"{model.name!r} has no gripper joint")
+            q = q.copy()
+            q[grip] = kf.gripper
+    return out
+
+
+def plan_program(program: KeyframeProgram, model: KinematicModel, limits: MotionLimits,
+                 q_start: npt.ArrayLike, options: PlaybackOptions | None = None,
+                 ik: IKFunction | None = None) -> MotionPlan:
+    """Plan a keyframe program from the present pose, checked against the limits.
+
+    Args:
+        program: The keyframes.
+        model: The arm.
+        limits: The arm's hard limits.
+        q_start: The present joint values.
+        options: Playback options.
+        ik: Solver for Cartesian keyframes.
+
+    Returns:
+        The checked plan; its waypoints are the keyframes with the time the arm passes them.
+
+    Raises:
+        LimitViolation: If any sample would exceed a limit (with the fastest feasible speed
+            factor for recorded programs).
+        PlanningError: If the program cannot be planned.
+    """
+    t0 = time.perf_counter()
+    options = options or PlaybackOptions()
+    if not program.keyframes:
+        raise InputError("the keyframe program has no keyframes")
+    start = np.asarray(q_start, dtype=float)
+    qs = resolve_keyframes(program, model, start, ik)
+    grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
+    stops = [_Stop(q, kf.label if kf.name else f"#{k}", kf.dwell, kf.gripper, kf.time,
+                   not options.blend or kf.dwell > 0 or kf.gripper is not None)
+             for k, (q, kf) in enumerate(zip(qs, program.keyframes, strict=False))]
+    if options.reverse:
+        stops = stops[::-1]
+    seq = stops * options.loops
+    if options.loops > 1:  # stop where each pass ends, before returning to the first keyframe
+        ends = range(len(stops) - 1, len(seq) - 1, len(stops))
+        for i in [*ends, *(e + 1 for e in ends)]:
+            seq[i] = _Stop(seq[i].q, seq[i].name, seq[i].dwell, seq[i].gripper, seq[i].time,
+                           True)
+    timed = options.use_times and program.timed and not options.reverse
+    for st in seq:
+        limits.check_position(st.q, f"keyframe {st.name}")
+    scaled = limits.scaled(min(options.speed, 1.0)) if not timed else limits
+    parts: list[Trajectory] = []
+    events: list[Event] = []
+    waypoints: list[Waypoint] = []
+    clock = 0.0
+    cur = start
+    if options.ease_in:
+        ease_speed = options.ease_in_speed if timed else min(options.ease_in_speed,
+                                                              options.speed)
+        ease = ruckig_move(start, seq[0].q, limits.scaled(ease_speed))
+        parts.append(ease)
+        clock += ease.duration
+        cur = seq[0].q
+    elif np.max(np.abs(seq[0].q - start)) > 1e-3:
+        raise InputError("the arm is not at the first keyframe; enable ease-in to move there")
+    first = seq[0]
+    waypoints.append(Waypoint(clock, first.q, first.name, True))
+    stop_limits = limits.scaled(min(options.speed, 1.0))
+    clock, cur = _emit_stop(first, cur, grip, stop_limits, parts, events, clock)
+    run: list[_Stop] = [_Stop(cur, first.name, 0.0, None, first.time, True)]
+    for st in seq[1:]:
+        if timed or np.max(np.abs(st.q - run[-1].q)) >= _SAME:
+            run.append(st)  # a recording standing still keeps its timing
+        elif not st.stop:
+            continue  # the same position again, passing through: nothing to do
+        if st.stop:
+            if len(run) > 1:
+                clock, cur = _emit_run(run, scaled, options, timed, parts, waypoints, clock)
+            else:
+                waypoints.append(Waypoint(clock, cur, st.name, True))
+            clock, cur = _emit_stop(st, cur, grip, stop_limits, parts, events, clock)
+            run = [_Stop(cur, st.name, 0.0, None, st.time, True)]
+    if len(run) > 1:
+        clock, cur = _emit_run(run, scaled, options, timed, parts, waypoints, clock)
+    parts = [p for p in parts if p.duration > 0] or [Hold(cur, 0.0)]
+    traj = parts[0] if len(parts) == 1 else Chain(parts)
+    hint = "lower the speed factor"
+    if timed:
+        hint = f"lower the speed factor (now {options.speed:g})"
+    try:
+        n = check_trajectory(traj, limits, check_jerk=options.interpolation is not
+                             Interpolation.CUBIC, hint=hint)
+    except LimitViolation as exc:
+        if timed and exc.kind in ("velocity", "acceleration"):
+            ratio = abs(exc.value) / exc.bound
+            power = 1.0 if exc.kind == "velocity" else 0.5
+            best = options.speed / ratio**power
+            raise LimitViolation(exc.joint, exc.kind, exc.value, exc.bound, exc.time,
+                                 f"the recorded timing is too fast at speed {options.speed:g};"
+                                 f" try --speed {best * 0.95:.2f} or lower") from None
+        raise
+    desc = (f"{len(program.keyframes)} keyframes, {options.interpolation.value}, "
+            f"{'blended' if options.blend else 'stop at each'}, x{options.loops}")
+    return MotionPlan(traj, limits, tuple(sorted(events, key=lambda e: e.time)),
+                      tuple(waypoints), time.perf_counter() - t0, n, desc)
+
+
+def _emit_run(run: list[_Stop], limits: MotionLimits, options: PlaybackOptions, timed: bool,
+              parts: list[Trajectory], waypoints: list[Waypoint], clock: float
+              ) -> tuple[float, Array]:
+    q = np.stack([s.q for s in run])
+    durations = None
+    if timed:
+        stamps = np.diff(np.array([s.time for s in run], dtype=float))
+        if np.all(stamps > 0):
+            durations = stamps / options.speed
+        else:  # from the end of one loop back to its start: no recorded timing
+            limits = limits.scaled(min(options.speed, 1.0))
+    traj, knots = plan_run(q, limits, options.interpolation, durations)
+    for s, t in zip(run[1:], knots[1:], strict=False):
+        waypoints.append(Waypoint(clock + t, s.q, s.name, s.stop))
+    parts.append(traj)
+    return clock + traj.duration, run[-1].q
+
+
+def _gripper_move(q: Array, value: float, grip: list[int], limits: MotionLimits) -> Trajectory:
+    goal = q.copy()
+    goal[grip] = value
+    return ruckig_move(q, goal, limits)
+
+
+def _emit_stop(st: _Stop, cur: Array, grip: list[int], limits: MotionLimits,
+               parts: list[Trajectory], events: list[Event], clock: float) -> tuple[float, Array]:
+    if st.dwell > 0:
+        parts.append(Hold(cur, st.dwell))
+        events.append(Event(clock, "dwell", st.name, st.dwell))
+        clock += st.dwell
+    if st.gripper is not None and grip:
+        move = _gripper_move(cur, st.gripper, grip, limits)
+        events.append(Event(clock, "gripper", st.name, st.gripper))
+        if move.duration > 0:
+            parts.append(move)
+            clock += move.duration
+        cur = move.end
+    return clock, cur
