@@ -1,0 +1,371 @@
+"""Servo bus commands: ``ports``, ``scan``, ``status``, ``torque``, ``sim``, ``calibrate``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import select
+import sys
+import time
+from typing import TYPE_CHECKING, Any
+
+from armctl.cli._common import add_config, add_json, emit, fmt, table
+from armctl.errors import InputError
+
+if TYPE_CHECKING:
+    from armctl.config.schema import ArmSpec
+    from armctl.servo import ArmBus, JointState
+
+ORDER = 50
+
+_DXL_BAUDS = (57_600, 1_000_000, 115_200, 2_000_000, 3_000_000, 4_000_000, 9_600)
+_FT_BAUDS = (1_000_000, 500_000, 250_000, 128_000, 115_200, 57_600, 38_400)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the bus commands."""
+    p = sub.add_parser("ports", help="list serial ports (USB adapters) with their descriptions")
+    add_json(p)
+    p.set_defaults(func=cmd_ports)
+
+    p = sub.add_parser("scan", help="find the servos on a port: ids, models, firmware")
+    p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyACM0")
+    p.add_argument("--protocol", choices=["dynamixel", "feetech", "dynamixel1"],
+                   help="wire protocol (default: try dynamixel and feetech; dynamixel1 = "
+                        "Dynamixel Protocol 1.0, pinged id by id)")
+    p.add_argument("--baud", default="1000000",
+                   help="baud rate in bit/s, or 'all' to try every standard rate")
+    add_json(p)
+    p.set_defaults(func=cmd_scan)
+
+    p = sub.add_parser("status", help="live table of the servos: angle, ticks, temperature, "
+                                      "voltage, load, errors")
+    add_config(p)
+    _add_bus_args(p)
+    p.add_argument("--once", action="store_true", help="print one reading and exit")
+    p.add_argument("--interval", type=float, default=0.2, help="refresh period [s]")
+    p.add_argument("--deg", action="store_true", help="show rotary joints in degrees")
+    add_json(p)
+    p.set_defaults(func=cmd_status)
+
+    p = sub.add_parser("torque", help="switch servo torque on or off")
+    add_config(p)
+    p.add_argument("state", choices=["on", "off"])
+    p.add_argument("joints", nargs="*", metavar="JOINT", help="joints (default: all)")
+    _add_bus_args(p)
+    add_json(p)
+    p.set_defaults(func=cmd_torque)
+
+    p = sub.add_parser("sim", help="run the simulated bus standalone on a pty; type 'help' "
+                                   "for its commands")
+    add_config(p)
+    p.add_argument("--wire-timing", action="store_true",
+                   help="time replies as on a real line at the configured baud rate")
+    p.add_argument("--scenario", help="fault scenario YAML to load (see docs/bus.md)")
+    add_json(p)
+    p.set_defaults(func=cmd_sim)
+
+    p = sub.add_parser("calibrate", help="measure zero offsets and ranges; writes the "
+                                         "calibration file beside the config")
+    add_config(p)
+    _add_bus_args(p, calibrated=False)
+    p.add_argument("--reference", default="zero",
+                   help="reference pose: 'zero' or the name of a pose in the config")
+    p.add_argument("-o", "--output", help="calibration file (default: beside the config)")
+    add_json(p)
+    p.set_defaults(func=cmd_calibrate)
+
+
+def _add_bus_args(p: argparse.ArgumentParser, calibrated: bool = True) -> None:
+    p.add_argument("--port", help="override the config's port (e.g. the pty of 'armctl sim')")
+    if calibrated:
+        p.add_argument("--no-calibration", action="store_true",
+                       help="ignore the calibration file")
+
+
+# ---- helpers ----------------------------------------------------------------------------------
+def _spec(args: argparse.Namespace) -> ArmSpec:
+    from dataclasses import replace
+
+    from armctl.config import load_spec
+
+    spec = load_spec(args.config)
+    if spec.bus is None:
+        raise InputError(f"arm {spec.name!r} has no 'bus:' section; add one (docs/bus.md)")
+    if getattr(args, "port", None):
+        spec = replace(spec, bus=replace(spec.bus, port=args.port))
+    return spec
+
+
+def _arm_bus(args: argparse.Namespace) -> ArmBus:
+    from armctl.servo import ArmBus
+    from armctl.servo.calibration import Calibration, calibration_path, check_against
+
+    spec = _spec(args)
+    cal = None
+    if not getattr(args, "no_calibration", True) and spec.file is not None:
+        path = calibration_path(spec)
+        if path.exists():
+            cal = Calibration.load(path)
+            check_against(cal, spec)
+    return ArmBus.from_spec(spec, cal)
+
+
+def _is_rotary(ab: ArmBus, name: str) -> bool:
+    from armctl.config.schema import JointType
+
+    return ab.mapping.joint(name).joint_type is not JointType.PRISMATIC
+
+
+# ---- ports and scan -----------------------------------------------------------------------------
+def cmd_ports(args: argparse.Namespace) -> int:
+    """List serial ports."""
+    from serial.tools import list_ports
+
+    rows, data = [], []
+    for p in sorted(list_ports.comports(), key=lambda p: p.device):
+        desc = p.description if p.description and p.description != "n/a" else ""
+        rows.append([p.device, desc, p.manufacturer or "", p.hwid or ""])
+        data.append({"device": p.device, "description": desc,
+                     "manufacturer": p.manufacturer, "hwid": p.hwid})
+    text = table(["port", "description", "manufacturer", "hwid"], rows) if rows else (
+        "no serial ports found (is the adapter plugged in? 'port: sim' needs none)")
+    emit(args, {"ports": data}, text)
+    return 0
+
+
+def cmd_scan(args: argparse.Namespace) -> int:
+    """Find servos on a port."""
+    from armctl.config.bus import Protocol
+    from armctl.servo import ServoBus
+    from armctl.servo.errors import PortError
+
+    protocols = [Protocol(args.protocol)] if args.protocol else [Protocol.DYNAMIXEL,
+                                                                 Protocol.FEETECH]
+    rows, data = [], []
+    for protocol in protocols:
+        bauds: tuple[int, ...] = _FT_BAUDS if protocol is Protocol.FEETECH else _DXL_BAUDS
+        if args.baud != "all":
+            try:
+                bauds = (int(args.baud),)
+            except ValueError:
+                raise InputError(f"--baud: {args.baud!r} is not a number or 'all'") from None
+        for baud in bauds:
+            bus = ServoBus(args.port, protocol, baud, latency_ms=16.0)
+            try:
+                bus.open()
+            except PortError as exc:
+                if "refuses" in str(exc):
+                    continue
+                raise
+            try:
+                found = bus.scan()
+            finally:
+                bus.close()
+            for f in found:
+                rows.append([protocol.value, str(baud), str(f.servo_id), str(f.model_number),
+                             f.model or "?", "-" if f.firmware is None else str(f.firmware)])
+                data.append({"protocol": protocol.value, "baudrate": baud, "id": f.servo_id,
+                             "model_number": f.model_number, "model": f.model,
+                             "firmware": f.firmware})
+    text = table(["protocol", "baud", "id", "model#", "model", "firmware"], rows, [1, 2, 3]) \
+        if rows else f"no servos answered on {args.port}"
+    emit(args, {"port": args.port, "servos": data}, text)
+    return 0
+
+
+# ---- status and torque --------------------------------------------------------------------------
+def _status_rows(ab: ArmBus, st: JointState, deg: bool) -> tuple[list[list[str]], list[dict]]:
+    rows, data = [], []
+    for i, name in enumerate(st.names):
+        j = ab.mapping.joint(name)
+        q = float(st.position[i])
+        shown = fmt(math.degrees(q), 2) if deg and _is_rotary(ab, name) else fmt(q, 4)
+        errs = ",".join(a.value for a in st.errors[i]) or "-"
+        rows.append([name, str(j.servo_id), shown, str(int(st.ticks[i])),
+                     fmt(float(st.temperature[i]), 0), fmt(float(st.voltage[i]), 1),
+                     fmt(100 * float(st.load[i]), 1), errs])
+        data.append({"joint": name, "id": j.servo_id, "position": q, "ticks": int(st.ticks[i]),
+                     "velocity": float(st.velocity[i]),
+                     "temperature": float(st.temperature[i]), "voltage": float(st.voltage[i]),
+                     "load": float(st.load[i]), "errors": [a.value for a in st.errors[i]]})
+    return rows, data
+
+
+def cmd_status(args: argparse.Namespace) -> int:
+    """Show servo status, once or live."""
+    ab = _arm_bus(args)
+    unit = "deg" if args.deg else "rad|m"
+    headers = ["joint", "id", f"angle [{unit}]", "ticks", "temp [C]", "volt [V]", "load [%]",
+               "errors"]
+    with ab:
+        while True:
+            st = ab.read_state()
+            rows, data = _status_rows(ab, st, args.deg)
+            text = table(headers, rows, [1, 2, 3, 4, 5, 6])
+            if args.once or args.json:
+                emit(args, {"arm": ab.arm_name, "port": ab.spec.port, "joints": data,
+                            "calibration": ab.calibration.hash if ab.calibration else None},
+                     text)
+                return 0
+            sys.stdout.write("\x1b[H\x1b[2J" + f"{ab.arm_name} on {ab.spec.port} "
+                             "(Ctrl-C to stop)\n\n" + text + "\n")
+            sys.stdout.flush()
+            try:
+                time.sleep(max(0.02, args.interval))
+            except KeyboardInterrupt:  # the normal way to leave the live table
+                return 0
+
+
+def cmd_torque(args: argparse.Namespace) -> int:
+    """Switch torque on or off."""
+    ab = _arm_bus(args)
+    on = args.state == "on"
+    with ab:
+        joints = args.joints or list(ab.joint_names)
+        ab.set_torque(on, joints)
+        state = ab.torque()
+    emit(args, {"torque": {n: state[n] for n in joints}},
+         f"torque {args.state}: {', '.join(joints)}")
+    return 0
+
+
+# ---- standalone simulator -----------------------------------------------------------------------
+_SIM_HELP = """commands:
+  get                       joint values and ticks
+  set JOINT VALUE [deg]     hand-guide a torque-off joint (rad or m; 'deg' for degrees)
+  ticks ID TICKS            hand-guide a torque-off servo by id, in ticks
+  fault KIND ID [COUNT]     inject a fault (dropped_reply, corrupted_reply, truncated_reply,
+                            late_reply, missing_servo, hardware_alarm, wrong_model,
+                            lockup_after_overload)
+  clear                     remove all faults
+  quit                      stop the simulator"""
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
+    """Run the simulated bus standalone until 'quit', end of input or Ctrl-C."""
+    from armctl.servo import SimulatedBus
+    from armctl.servo.calibration import Calibration, calibration_path
+
+    spec = _spec(args)
+    assert spec.bus is not None  # _spec checked it  # mypy.
+    cal = None
+    if spec.file is not None and spec.bus.port == "sim" and calibration_path(spec).exists():
+        cal = Calibration.load(calibration_path(spec))
+    sim = SimulatedBus.from_spec(spec, cal, wire_timing=args.wire_timing)
+    with sim:
+        if args.scenario:
+            sim.load_scenario(args.scenario)
+        emit(args, {"port": sim.port, "protocol": spec.bus.protocol.value,
+                    "baudrate": spec.bus.baudrate, "servos": [s.id for s in sim.servos]},
+             f"simulated {spec.bus.protocol.value} bus for {spec.name} on {sim.port} at "
+             f"{spec.bus.baudrate} baud (servo ids "
+             f"{', '.join(str(s.id) for s in sim.servos)}); type 'help' for commands")
+        sys.stdout.flush()
+        while True:
+            try:
+                line = sys.stdin.readline()
+            except KeyboardInterrupt:  # the normal way to stop the simulator
+                return 0
+            if not line:
+                return 0
+            words = line.split()
+            if not words:
+                continue
+            try:
+                if _sim_command(sim, words):
+                    return 0
+            except (InputError, ValueError, KeyError) as exc:
+                print(f"error: {exc}")
+            sys.stdout.flush()
+
+
+def _sim_command(sim: Any, words: list[str]) -> bool:
+    from armctl.servo.sim import faults as F
+
+    cmd = words[0].lower()
+    if cmd in ("quit", "exit"):
+        return True
+    if cmd == "help":
+        print(_SIM_HELP)
+    elif cmd == "get":
+        ticks = sim.positions
+        if sim.mapping is not None:
+            for j in sim.mapping.joints:
+                print(f"{j.name} (id {j.servo_id}): {j.to_joint(ticks[j.servo_id]):.4f} "
+                      f"[{ticks[j.servo_id]} ticks]")
+        else:
+            print(ticks)
+    elif cmd == "set" and len(words) in (3, 4):
+        value = float(words[2])
+        if len(words) == 4 and words[3] == "deg":
+            value = math.radians(value)
+        sim.set_joint(words[1], value)
+        print("ok")
+    elif cmd == "ticks" and len(words) == 3:
+        sim.set_joint(int(words[1]), int(words[2]))
+        print("ok")
+    elif cmd == "fault" and len(words) in (3, 4):
+        cls = F.FAULT_KINDS.get(words[1])
+        if cls is None or cls is F.LatencySpike:
+            raise InputError(f"unknown fault {words[1]!r}; see 'help'")
+        kw: dict[str, Any] = {"servo_id": int(words[2])}
+        if len(words) == 4:
+            kw["count"] = int(words[3])
+        sim.inject(cls(**kw))
+        print("ok")
+    elif cmd == "clear":
+        sim.clear_faults()
+        print("ok")
+    else:
+        print(f"unknown command {' '.join(words)!r}\n{_SIM_HELP}")
+    return False
+
+
+# ---- calibration ---------------------------------------------------------------------------------
+def _wait_enter(prompt: str, while_waiting: Any = None, period: float = 0.02) -> None:
+    print(prompt, flush=True)
+    while True:
+        if while_waiting is not None:
+            while_waiting()
+        ready, _, _ = select.select([sys.stdin], [], [], period)
+        if ready:
+            sys.stdin.readline()
+            return
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    """Interactive calibration: reference pose, range sweep, offsets, file."""
+    from pathlib import Path
+
+    from armctl.servo.calibration import Calibrator, calibration_path
+
+    args.no_calibration = True
+    spec = _spec(args)
+    if args.reference == "zero":
+        reference: dict[str, float] = {}
+    elif args.reference in spec.poses:
+        reference = dict(spec.poses[args.reference])
+    else:
+        raise InputError(f"--reference: {args.reference!r} is neither 'zero' nor a pose of "
+                         f"the arm ({', '.join(spec.poses) or 'none defined'})")
+    out = Path(args.output) if args.output else calibration_path(spec)
+    ab = _arm_bus(args)
+    with ab:
+        cal = Calibrator(ab, reference)
+        cal.start()
+        _wait_enter("Torque is off. Move the arm to the reference pose "
+                    f"({args.reference}) and press Enter.")
+        cal.capture_reference()
+        _wait_enter("Move every joint slowly through its full range, then back to the "
+                    "reference pose, and press Enter.", cal.sample)
+        result = cal.finish()
+    path = result.save(out)
+    rows = [[n, str(j.servo_id), fmt(j.zero_tick, 0), fmt(j.min_tick, 0), fmt(j.max_tick, 0),
+             str(j.homing_offset), "yes" if j.wrap_detected else "no"]
+            for n, j in result.joints.items()]
+    text = table(["joint", "id", "zero", "min", "max", "offset", "wrap seen"], rows,
+                 [1, 2, 3, 4, 5]) + f"\n\nwrote {path} (hash {result.hash})"
+    emit(args, {"file": str(path), "hash": result.hash,
+                "joints": {n: vars(j) for n, j in result.joints.items()}}, text)
+    return 0

@@ -1,0 +1,57 @@
+"""Servo buses: drivers over the vendor SDKs, joint mapping, calibration, simulated bus.
+
+Dynamixel and Feetech drivers talk through the vendor SDKs; the joint mapping and calibration
+turn ticks into SI units; a wire-level simulated bus with fault injection stands in for hardware.
+
+The joint-level entry point is :class:`ArmBus`; :class:`SimulatedBus` is the simulator that the
+real SDKs talk to on a pseudo-terminal (``port: sim`` in an arm config starts one in-process).
+"""
+
+from __future__ import annotations
+
+from armctl.servo.arm_bus import ArmBus, JointState
+from armctl.servo.calibration import Calibration, Calibrator
+from armctl.servo.driver import ServoBus
+from armctl.servo.mapping import JointMap, JointMapping
+from armctl.servo.sim.bus import SimServoSpec, SimulatedBus
+from armctl.servo.sim.faults import (
+    Alarm,
+    CorruptedReply,
+    DroppedReply,
+    Fault,
+    HardwareAlarm,
+    LatencySpike,
+    LateReply,
+    LockupAfterOverload,
+    MissingServo,
+    TruncatedReply,
+    WrongModel,
+)
+from armctl.servo.status import Feedback, PingResult
+from armctl.servo.tables import Register
+
+__all__ = [
+    "Alarm",
+    "ArmBus",
+    "Calibration",
+    "Calibrator",
+    "CorruptedReply",
+    "DroppedReply",
+    "Fault",
+    "Feedback",
+    "HardwareAlarm",
+    "JointMap",
+    "JointMapping",
+    "JointState",
+    "LateReply",
+    "LatencySpike",
+    "LockupAfterOverload",
+    "MissingServo",
+    "PingResult",
+    "Register",
+    "ServoBus",
+    "SimServoSpec",
+    "SimulatedBus",
+    "TruncatedReply",
+    "WrongModel",
+]

@@ -1,0 +1,311 @@
+"""The joint-level facade: an arm's servo bus read and commanded in joint units.
+
+:class:`ArmBus` combines the arm config's ``bus:`` section, the joint mapping (and calibration)
+and a :class:`~armctl.servo.driver.ServoBus`. With ``port: sim`` it starts the in-process
+simulated bus on a pty and talks to it through the real SDK, exactly as it would to hardware.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.config.bus import BusSpec, Protocol
+from armctl.config.schema import ArmSpec
+from armctl.errors import ConfigError, InputError
+from armctl.servo import errors as E
+from armctl.servo.driver import Feedback, ServoBus
+from armctl.servo.mapping import JointMapping
+from armctl.servo.tables import Alarm, Family, Register, table_for
+
+if TYPE_CHECKING:
+    from armctl.servo.calibration import Calibration
+    from armctl.servo.sim.bus import SimulatedBus
+
+__all__ = ["ArmBus", "JointState"]
+
+Array = npt.NDArray[np.float64]
+SIM_LATENCY_MS = 8.0  # adapter latency assumed in reply timeouts on the simulated bus [ms]
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class JointState:
+    """The state of every servo joint from one bus transaction (arrays are read-only).
+
+    Attributes:
+        names: Joint names (the order of every array).
+        position: Joint values [rad] or [m].
+        velocity: Joint velocities [rad/s] or [m/s].
+        load: Present load / 1000 in the servo's unit: a fraction of the maximum torque (-1..1)
+            for 0.1 % units (STS3215, XL430), [A] for current-sensing models (XL330, XM430).
+        temperature: Servo temperatures [degC].
+        voltage: Servo input voltages [V].
+        ticks: Raw present positions [tick].
+        errors: Per joint, the hardware alarms the servo reports (empty when healthy).
+    """
+
+    names: tuple[str, ...]
+    position: Array
+    velocity: Array
+    load: Array
+    temperature: Array
+    voltage: Array
+    ticks: npt.NDArray[np.int64]
+    errors: tuple[tuple[Alarm, ...], ...]
+
+    @property
+    def ok(self) -> bool:
+        """Whether no servo reports an alarm."""
+        return not any(self.errors)
+
+
+class ArmBus:
+    """An arm's servos, in joint units.
+
+    Build it with :meth:`from_spec` (no I/O), then :meth:`open` it or use ``with``.
+
+    Args:
+        bus: The bus section of the config.
+        mapping: The joint mapping.
+        retries: Extra attempts after a failed transaction.
+        wire_timing: For ``port: sim``: time the simulated replies as on the wire.
+    """
+
+    def __init__(self, bus: BusSpec, mapping: JointMapping, *, retries: int = 2,
+                 wire_timing: bool = False):
+        self.spec = bus
+        self.mapping = mapping
+        self.joint_names: tuple[str, ...] = mapping.names
+        self.retries = retries
+        self.wire_timing = wire_timing
+        self._bus: ServoBus | None = None
+        self._sim: SimulatedBus | None = None
+        self._ids = list(mapping.ids)
+        self.calibration: Calibration | None = None
+        self.arm_name = "arm"
+
+    @classmethod
+    def from_spec(cls, spec: ArmSpec, calibration: Calibration | None = None, *,
+                  retries: int = 2, wire_timing: bool = False) -> ArmBus:
+        """The bus of an arm config (no I/O).
+
+        Args:
+            spec: An arm with a ``bus:`` section.
+            calibration: Calibration (see :mod:`armctl.servo.calibration`); ``None`` uses the
+                config's offsets.
+            retries: Extra attempts after a failed transaction.
+            wire_timing: For ``port: sim``: time simulated replies at the baud rate.
+
+        Raises:
+            ConfigError: No bus section, or an inconsistent one.
+        """
+        if spec.bus is None:
+            raise ConfigError(f"arm {spec.name!r} has no 'bus:' section", None,
+                              "add a bus section (see docs/bus.md)")
+        mapping = JointMapping.from_spec(spec, calibration)
+        self = cls(spec.bus, mapping, retries=retries, wire_timing=wire_timing)
+        self.calibration = calibration
+        self.arm_name = spec.name
+        return self
+
+    # ---- life cycle -------------------------------------------------------------------------
+    def open(self) -> ArmBus:
+        """Open the port and check and configure every servo.
+
+        Starts the simulated bus for ``port: sim``; checks every servo's presence and model;
+        sets each servo's operating mode and calibrated homing offset.
+
+        Raises:
+            PortError, ServoMissingError, WrongModelError: See :mod:`armctl.servo.errors`.
+        """
+        if self._bus is not None:
+            return self
+        port, latency = self.spec.port, 16.0
+        if self.spec.simulated:
+            from armctl.servo.sim.bus import SimulatedBus
+
+            self._sim = SimulatedBus.from_mapping(self.mapping, self.spec.protocol,
+                                                  self.spec.baudrate,
+                                                  wire_timing=self.wire_timing)
+            port, latency = self._sim.start(), SIM_LATENCY_MS
+        models = {j.servo_id: j.model for j in self.mapping.joints}
+        bus = ServoBus(port, self.spec.protocol, self.spec.baudrate, models=models,
+                       retries=self.retries, latency_ms=latency)
+        try:
+            bus.open()
+            bus.verify()
+            self._bus = bus
+            self._configure()
+        except BaseException:
+            self._bus = None
+            bus.close()
+            if self._sim is not None:
+                self._sim.stop()
+                self._sim = None
+            raise
+        return self
+
+    def close(self) -> None:
+        """Close the port and stop the simulated bus (torque is left as it is)."""
+        if self._bus is not None:
+            self._bus.close()
+            self._bus = None
+        if self._sim is not None:
+            self._sim.stop()
+            self._sim = None
+
+    def __enter__(self) -> ArmBus:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def simulator(self) -> SimulatedBus | None:
+        """The in-process simulated bus (``None`` on hardware or before :meth:`open`)."""
+        return self._sim
+
+    @property
+    def servo_bus(self) -> ServoBus:
+        """The underlying register-level bus.
+
+        Raises:
+            PortError: If the bus is not open.
+        """
+        if self._bus is None:
+            raise E.PortError("the bus is not open", self.spec.port,
+                              fix="call open() or use 'with ArmBus.from_spec(...)' first")
+        return self._bus
+
+    def _configure(self) -> None:
+        """Operating modes (multi-turn where needed) and calibrated homing offsets."""
+        bus = self.servo_bus
+        for j in self.mapping.joints:
+            table = table_for(j.model)
+            wants: list[tuple[Register, int]] = []
+            if table.family is Family.DYNAMIXEL:
+                wants.append((Register.OPERATING_MODE, 4 if j.multi_turn else 3))
+            wants.append((Register.HOMING_OFFSET, j.homing_offset))
+            todo = [(r, v) for r, v in wants if bus.read(j.servo_id, r) != v]
+            if not todo:
+                continue
+            if bus.read(j.servo_id, Register.TORQUE_ENABLE):
+                raise E.EepromLockedError(
+                    f"joint {j.name!r} needs {', '.join(f'{r.value}={v}' for r, v in todo)}, "
+                    "an EEPROM write, but torque is on", bus.port, j.servo_id, todo[0][0].value,
+                    fix="turn torque off ('armctl torque CONFIG off') and open the bus again")
+            self.write_eeprom(j.servo_id, todo)
+
+    def write_eeprom(self, sid: int, items: Sequence[tuple[Register, int]]) -> None:
+        """Write configuration registers of one servo (torque must be off).
+
+        On Feetech the EEPROM is unlocked for the writes and locked again.
+
+        Raises:
+            EepromLockedError: If the servo refuses (torque on).
+        """
+        bus = self.servo_bus
+        feetech = bus.family is Family.FEETECH
+        if feetech:
+            bus.write(sid, Register.LOCK, 0)
+        for reg, value in items:
+            bus.write(sid, reg, value)
+        if feetech:
+            bus.write(sid, Register.LOCK, 1)
+
+    # ---- reading -------------------------------------------------------------------------------
+    def _feedback(self) -> dict[int, Feedback]:
+        return self.servo_bus.read_feedback(self._ids)
+
+    def read_joints(self) -> Array:
+        """Present joint values [rad] or [m] from one sync read.
+
+        Raises:
+            ServoAlarmError: If a servo reports a hardware alarm (its torque may be off).
+            CommError: If the bus fails after its retries.
+        """
+        got = self.servo_bus.read_positions(self._ids)
+        for j in self.mapping.joints:
+            alarms = got[j.servo_id][1]
+            if alarms:
+                raise E.ServoAlarmError(f"joint {j.name!r}: hardware alarm", self.servo_bus.port,
+                                        j.servo_id, "present_position",
+                                        ", ".join(a.value for a in alarms),
+                                        fix="remove the cause, then reboot the servo "
+                                            "(ArmBus.reboot)")
+        return self.mapping.from_ticks({sid: p for sid, (p, _) in got.items()})
+
+    def read_state(self) -> JointState:
+        """Position, velocity, load, temperature, voltage and alarms of every servo joint.
+
+        One sync read (plus one register read per Dynamixel servo that flags an alarm).
+        """
+        fb = self._feedback()
+        js = self.mapping.joints
+        pos = self.mapping.from_ticks({sid: f.position for sid, f in fb.items()})
+        vel = np.array([fb[j.servo_id].velocity * 2 * math.pi
+                        / (j.direction * j.gear_ratio * j.ticks_per_rev) for j in js])
+        load = np.array([fb[j.servo_id].load / 1000.0 for j in js])
+        return JointState(
+            names=self.joint_names, position=_frozen(pos), velocity=_frozen(vel),
+            load=_frozen(load),
+            temperature=_frozen(np.array([float(fb[j.servo_id].temperature) for j in js])),
+            voltage=_frozen(np.array([fb[j.servo_id].voltage for j in js])),
+            ticks=_frozen(np.array([fb[j.servo_id].position for j in js], dtype=np.int64)),
+            errors=tuple(fb[j.servo_id].alarms for j in js),
+        )
+
+    # ---- commanding ------------------------------------------------------------------------------
+    def write_joints(self, q: npt.ArrayLike) -> None:
+        """Send goal positions for every servo joint in one sync write.
+
+        Args:
+            q: One value per joint of :attr:`joint_names`, [rad] or [m].
+
+        Raises:
+            JointLimitError: A value outside its joint's limits; nothing is sent.
+            InputError: Wrong number of values or not finite; nothing is sent.
+        """
+        arr = self.mapping.as_vector(q)
+        if not np.all(np.isfinite(arr)):
+            bad = self.joint_names[int(np.argmin(np.isfinite(arr)))]
+            raise InputError(f"joint {bad!r}: goal is not a finite number; nothing was sent")
+        ticks = self.mapping.goal_ticks(arr)
+        self.servo_bus.sync_write(Register.GOAL_POSITION, ticks)
+
+    def set_torque(self, on: bool, joints: Sequence[str] | None = None) -> None:
+        """Switch torque on or off for some joints (all when ``joints`` is ``None``).
+
+        Raises:
+            UnknownNameError: For a joint without a servo.
+        """
+        names = self.joint_names if joints is None else tuple(joints)
+        ids = [self.mapping.joint(n).servo_id for n in names]
+        self.servo_bus.set_torque(ids, on)
+
+    def torque(self) -> dict[str, bool]:
+        """Whether torque is on, per joint."""
+        bus = self.servo_bus
+        return {j.name: bool(bus.read(j.servo_id, Register.TORQUE_ENABLE))
+                for j in self.mapping.joints}
+
+    def reboot(self, joints: Sequence[str] | None = None) -> None:
+        """Reboot servos (clears latched alarms; torque comes back off)."""
+        names = self.joint_names if joints is None else tuple(joints)
+        for n in names:
+            self.servo_bus.reboot(self.mapping.joint(n).servo_id)
+
+    @property
+    def protocol(self) -> Protocol:
+        """The bus protocol."""
+        return self.spec.protocol

@@ -1,0 +1,263 @@
+"""The joint <-> servo mapping: the one place where joint values become servo ticks.
+
+For a joint with servo zero tick ``z``, joint value at that tick ``q0``, direction ``d`` (+1/-1),
+gear ratio ``g`` (servo turns per joint turn, or servo [rad] per joint [m] for a prismatic joint)
+and ``N`` ticks per servo turn::
+
+    ticks = z + d * g * (q - q0) * N / (2 pi)          q = q0 + d * (ticks - z) * 2 pi / (g N)
+
+Without calibration ``z`` is the servo's centre tick (``N / 2``) and ``q0`` the config's
+``offset``; a calibration file replaces both with measured values and narrows the limits to the
+measured range. Joint limits are checked here, before any tick is computed for a write.
+
+Single-turn servos report 0..N-1: a reading is unwrapped onto the side of the encoder wrap that
+lies nearest the joint's range. A goal whose ticks would fall outside 0..N-1 means the encoder
+wrap lies inside the joint's travel; that is refused (calibrate to move the wrap out of the
+travel). Joints whose range exceeds one servo turn use multi-turn (extended position) mode,
+available on Dynamixel X servos.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.config.schema import ArmSpec, JointType
+from armctl.errors import ConfigError, InputError, JointLimitError, UnknownNameError
+from armctl.servo.tables import Family, table_for
+
+if TYPE_CHECKING:
+    from armctl.servo.calibration import Calibration
+
+__all__ = ["JointMap", "JointMapping"]
+
+_TURN_MARGIN = 0.97  # a joint using more than this fraction of a servo turn needs multi-turn
+_EPS = 1e-9
+
+
+@dataclass(frozen=True)
+class JointMap:
+    """The mapping of one joint onto its servo.
+
+    Attributes:
+        name: Joint name.
+        servo_id: Servo id.
+        model: Servo model.
+        joint_type: Revolute, continuous or prismatic.
+        zero_tick: Servo position [tick] where the joint value is ``zero_value``.
+        zero_value: Joint value [rad] or [m] at ``zero_tick``.
+        direction: +1, or -1 when the servo turns against the joint axis.
+        gear_ratio: Servo turns per joint turn (servo [rad] per joint [m] when prismatic).
+        lower: Lowest joint value allowed [rad] or [m].
+        upper: Highest joint value allowed.
+        ticks_per_rev: Encoder ticks per servo turn.
+        multi_turn: Whether the servo runs in multi-turn (extended position) mode.
+        rest: A safe joint value inside the limits (home pose, else 0 clipped).
+        homing_offset: The Homing Offset register value this mapping assumes [tick].
+    """
+
+    name: str
+    servo_id: int
+    model: str
+    joint_type: JointType
+    zero_tick: float
+    zero_value: float
+    direction: int
+    gear_ratio: float
+    lower: float
+    upper: float
+    ticks_per_rev: int = 4096
+    multi_turn: bool = False
+    rest: float = 0.0
+    homing_offset: int = 0
+
+    @property
+    def _k(self) -> float:
+        """Ticks per joint unit, signed."""
+        return self.direction * self.gear_ratio * self.ticks_per_rev / (2.0 * math.pi)
+
+    def to_ticks(self, q: float) -> float:
+        """Servo position [tick] (unrounded, unwrapped) for joint value ``q``."""
+        return self.zero_tick + self._k * (q - self.zero_value)
+
+    def to_joint_raw(self, ticks: float) -> float:
+        """Joint value for ``ticks`` without unwrapping."""
+        return self.zero_value + (float(ticks) - self.zero_tick) / self._k
+
+    def to_joint(self, ticks: float) -> float:
+        """Joint value for a reported servo position, unwrapped on single-turn servos."""
+        t = float(ticks)
+        if not self.multi_turn and math.isfinite(self.lower) and math.isfinite(self.upper):
+            lo, hi = sorted((self.to_ticks(self.lower), self.to_ticks(self.upper)))
+            n = self.ticks_per_rev
+            best = min((t + k * n for k in (-1, 0, 1)),
+                       key=lambda c: max(lo - c, 0.0, c - hi))
+            t = best
+        return self.zero_value + (t - self.zero_tick) / self._k
+
+    def check(self, q: float, context: str = "") -> None:
+        """Refuse a value outside the limits (or not a number).
+
+        Raises:
+            JointLimitError: Outside ``[lower, upper]``.
+        """
+        if not (self.lower - _EPS <= q <= self.upper + _EPS):
+            raise JointLimitError(self.name, float(q), self.lower, self.upper, context)
+
+    def goal_ticks(self, q: float) -> int:
+        """The goal position [tick] to send for ``q`` (limits checked first).
+
+        Raises:
+            JointLimitError: ``q`` is outside the limits.
+            ConfigError: The goal lies across the encoder wrap of a single-turn servo.
+        """
+        self.check(q, "servo goal")
+        t = round(self.to_ticks(q))
+        if not self.multi_turn and not 0 <= t < self.ticks_per_rev:
+            raise ConfigError(
+                f"joint {self.name!r}: {q:.6g} needs servo tick {t}, outside the single-turn "
+                f"range 0..{self.ticks_per_rev - 1}: the encoder wrap lies inside the joint's "
+                "travel; nothing was sent",
+                fix="run 'armctl calibrate CONFIG' (it moves the wrap out of the travel) or "
+                    "fix the joint's offset in the bus section")
+        return t
+
+    def wrap_inside(self) -> bool:
+        """Whether the joint's range crosses the single-turn encoder wrap."""
+        if self.multi_turn or not (math.isfinite(self.lower) and math.isfinite(self.upper)):
+            return False
+        lo, hi = sorted((self.to_ticks(self.lower), self.to_ticks(self.upper)))
+        return lo < -0.5 or hi > self.ticks_per_rev - 0.5
+
+
+def _wrap_shift(j: JointMap, family: Family) -> int:
+    """The smallest tick shift that brings a joint's travel inside 0..N-1, or 0 if none can.
+
+    A Dynamixel servo in Position mode honours homing offsets within +-1024 only (e-Manual);
+    a Feetech offset is sign-magnitude with 11 bits (+-2047).
+    """
+    n = j.ticks_per_rev
+    lo, hi = sorted((j.to_ticks(j.lower), j.to_ticks(j.upper)))
+    margin = 16.0
+    if hi - lo > n - 1 - 2 * margin:
+        return 0
+    s_lo, s_hi = math.ceil(margin - lo), math.floor(n - 1 - margin - hi)
+    shift = min(max(0, s_lo), s_hi)
+    limit = 2047 if family is Family.FEETECH else 1024
+    return shift if abs(shift) <= limit else 0
+
+
+class JointMapping:
+    """The mapping of every servo-driven joint of an arm, in the arm's joint order.
+
+    Args:
+        joints: One :class:`JointMap` per servo-driven joint.
+    """
+
+    def __init__(self, joints: Sequence[JointMap]):
+        self.joints: tuple[JointMap, ...] = tuple(joints)
+        self.names: tuple[str, ...] = tuple(j.name for j in self.joints)
+        self.ids: tuple[int, ...] = tuple(j.servo_id for j in self.joints)
+        self._by_name = {j.name: j for j in self.joints}
+        self.lower = np.array([j.lower for j in self.joints])
+        self.upper = np.array([j.upper for j in self.joints])
+
+    @classmethod
+    def from_spec(cls, spec: ArmSpec, calibration: Calibration | None = None) -> JointMapping:
+        """The mapping of an arm config's ``bus:`` section (no I/O).
+
+        Raises:
+            ConfigError: No bus section, or a joint that needs a turn count its servo lacks.
+        """
+        if spec.bus is None:
+            raise ConfigError(f"arm {spec.name!r} has no 'bus:' section", None,
+                              "add a bus section with port, protocol and servos")
+        by_joint = {s.joint: s for s in spec.bus.servos}
+        home = spec.poses.get("home", {})
+        maps = []
+        for joint in spec.actuated_joints:
+            s = by_joint.get(joint.name)
+            if s is None:
+                continue
+            table = table_for(s.model)
+            if table.family.value != ("feetech" if spec.bus.protocol.value == "feetech"
+                                      else "dynamixel"):
+                raise ConfigError(f"servo model {s.model!r} does not speak "
+                                  f"{spec.bus.protocol.value}", s.where,
+                                  "fix the model or the bus protocol")
+            n = table.ticks_per_rev
+            lower, upper = joint.limits.lower, joint.limits.upper
+            zero_tick, zero_value = n / 2.0, s.offset
+            cal = calibration.joints.get(joint.name) if calibration is not None else None
+            if cal is not None:
+                zero_tick, zero_value = cal.zero_tick, cal.zero_value
+            span = (upper - lower) * s.gear_ratio / (2.0 * math.pi)
+            multi = joint.type is JointType.CONTINUOUS or not math.isfinite(span) or \
+                span > _TURN_MARGIN or (cal is not None and cal.multi_turn)
+            if multi and table.family is Family.FEETECH:
+                raise ConfigError(
+                    f"joint {joint.name!r} spans {span:.2f} servo turns; {s.model} servos are "
+                    "driven single-turn by armctl", s.where,
+                    "narrow the joint limits below one servo turn or use a Dynamixel servo")
+            jm = JointMap(joint.name, s.id, s.model, joint.type, zero_tick, zero_value,
+                          s.direction, s.gear_ratio, lower, upper, n, multi)
+            homing = 0
+            if cal is not None:
+                a, b = sorted((jm.to_joint_raw(cal.min_tick), jm.to_joint_raw(cal.max_tick)))
+                lower, upper = max(lower, a), min(upper, b)
+                homing = cal.homing_offset
+            elif jm.wrap_inside():
+                shift = _wrap_shift(jm, table.family)
+                if shift:  # move the encoder wrap out of the travel with the homing offset
+                    zero_tick += shift
+                    homing = -shift if table.family is Family.FEETECH else shift
+            rest = home.get(joint.name, 0.0)
+            rest = min(max(rest, lower), upper) if math.isfinite(lower) or math.isfinite(
+                upper) else rest
+            maps.append(JointMap(joint.name, s.id, s.model, joint.type, zero_tick, zero_value,
+                                 s.direction, s.gear_ratio, lower, upper, n, multi, rest,
+                                 homing))
+        if not maps:
+            raise ConfigError(f"arm {spec.name!r}: the bus section drives no joint", None,
+                              "list the servos under bus.servos by joint name")
+        return cls(maps)
+
+    def joint(self, name: str) -> JointMap:
+        """The mapping of joint ``name``.
+
+        Raises:
+            UnknownNameError: For a joint without a servo.
+        """
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise UnknownNameError("servo joint", name, self.names) from None
+
+    def as_vector(self, q: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """``q`` as a float vector with one value per servo joint.
+
+        Raises:
+            InputError: For the wrong length.
+        """
+        arr = np.asarray(q, dtype=float).reshape(-1)
+        if arr.shape != (len(self.joints),):
+            raise InputError(f"expected {len(self.joints)} joint values "
+                             f"({', '.join(self.names)}), got {arr.size}")
+        return arr
+
+    def goal_ticks(self, q: npt.ArrayLike) -> dict[int, int]:
+        """Goal ticks by servo id; every limit is checked before any tick is returned."""
+        arr = self.as_vector(q)
+        for j, v in zip(self.joints, arr, strict=True):
+            j.check(float(v), "servo goal")
+        return {j.servo_id: j.goal_ticks(float(v)) for j, v in zip(self.joints, arr, strict=True)}
+
+    def from_ticks(self, ticks: Mapping[int, float]) -> npt.NDArray[np.float64]:
+        """Joint values from present positions by servo id."""
+        return np.array([j.to_joint(ticks[j.servo_id]) for j in self.joints])
+

@@ -1,0 +1,465 @@
+"""The simulated servo bus: servos behind a pseudo-terminal that the real SDKs open.
+
+A background thread reads the pty master, frames instruction packets (:mod:`.wire`), lets the
+addressed :class:`~armctl.servo.sim.servo.SimServo` objects act on them (:mod:`.dispatch`)
+and writes their status packets back. A servo only hears the host when the host's baud rate
+equals its Baud Rate register. Injected faults (:mod:`.faults`) act here, on the replies and on
+which servos are present.
+
+With ``wire_timing=True`` replies are timed as on a real half-duplex line at the configured baud
+rate: instruction bytes, each servo's return delay, then its reply bytes (10 bit times a byte).
+With it off (the default, for tests) replies are immediate.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import select
+import threading
+import time
+import tty
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from armctl.config.bus import Protocol
+from armctl.errors import InputError
+from armctl.servo.sim import faults as F
+from armctl.servo.sim.dispatch import REBOOT, Dispatcher, Reply
+from armctl.servo.sim.serialspeed import client_baudrate
+from armctl.servo.sim.servo import SimServo
+from armctl.servo.sim.wire import BROADCAST, DxlWire, FeetechWire, Instruction
+from armctl.servo.tables import Family, Register, table_for
+
+if TYPE_CHECKING:
+    from armctl.config.schema import ArmSpec
+    from armctl.servo.calibration import Calibration
+    from armctl.servo.mapping import JointMapping
+
+__all__ = ["SimServoSpec", "SimulatedBus"]
+
+_EARLY = 3e-4  # [s] how early a reply that is not the last of a group may be sent
+_REPLY_FAULTS = (F.DroppedReply, F.CorruptedReply, F.TruncatedReply, F.LateReply, F.LatencySpike)
+
+
+@dataclass(frozen=True)
+class SimServoSpec:
+    """A servo to put on the simulated bus.
+
+    Attributes:
+        servo_id: Its id.
+        model: Model name (``"sts3215"``, ``"xm430-w350"``, ...).
+        position: Initial present position [tick].
+        homing_offset: Homing offset already stored in the servo's EEPROM [tick].
+        multi_turn: Dynamixel only: start in extended position mode (4).
+    """
+
+    servo_id: int
+    model: str
+    position: int = 2048
+    homing_offset: int = 0
+    multi_turn: bool = False
+
+
+class SimulatedBus:
+    """Simulated servos on a pty, speaking Dynamixel 2.0 or 1.0, or Feetech SCS/STS.
+
+    Use it as a context manager or call :meth:`start` / :meth:`stop`. :attr:`port` is the pty
+    path that any program can open at the bus baud rate; :attr:`servos` are the
+    :class:`SimServo` objects (registers via ``get``/``set``); :attr:`requests` counts the
+    instruction packets received.
+
+    Args:
+        servos: The servos.
+        protocol: Wire protocol (Dynamixel 2.0 or Feetech).
+        baudrate: Baud rate the servos listen at [bit/s].
+        wire_timing: Time replies as on the wire (see the module docstring).
+        mapping: Joint mapping, so that :meth:`set_joint` accepts joint names and SI values.
+    """
+
+    def __init__(self, servos: Iterable[SimServoSpec], protocol: Protocol = Protocol.DYNAMIXEL,
+                 baudrate: int = 1_000_000, *, wire_timing: bool = False,
+                 mapping: JointMapping | None = None):
+        self.protocol = protocol
+        self.baudrate = baudrate
+        self.wire_timing = wire_timing
+        self.mapping = mapping
+        self.servos: list[SimServo] = []
+        family = Family.FEETECH if protocol is Protocol.FEETECH else Family.DYNAMIXEL
+        for s in servos:
+            table = table_for(s.model)
+            if table.family is not family:
+                raise InputError(f"servo {s.servo_id}: a {s.model} does not speak "
+                                 f"{protocol.value}")
+            if any(o.id == s.servo_id for o in self.servos):
+                raise InputError(f"servo id {s.servo_id} is used twice on the simulated bus")
+            servo = SimServo(table, s.servo_id, baudrate, s.position)
+            if s.multi_turn and not servo.feetech:
+                servo.set(Register.OPERATING_MODE, 4)
+            if s.homing_offset:
+                servo.set(Register.HOMING_OFFSET, s.homing_offset)
+            servo.set_present_position(s.position)
+            self.servos.append(servo)
+        p1 = protocol is Protocol.DYNAMIXEL1  # Protocol 1.0 framing is Feetech's
+        self._wire = FeetechWire() if protocol is Protocol.FEETECH or p1 else DxlWire()
+        self._dispatch = Dispatcher(self._wire, protocol1=p1)
+        self._faults: list[F.Fault] = []
+        self._scheduled: list[tuple[float, F.Fault]] = []
+        self._lock = threading.RLock()
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._master = self._slave = -1
+        self._wake_r = self._wake_w = -1
+        self._wire_free = 0.0
+        self._started_at = 0.0
+        self.port = ""
+        self.requests = 0
+        self.trace: list[tuple[str, bytes]] | None = None
+
+    @classmethod
+    def from_spec(cls, spec: ArmSpec, calibration: Calibration | None = None, *,
+                  wire_timing: bool = False) -> SimulatedBus:
+        """A simulated bus with the servos of an arm config, each at its joint's rest value.
+
+        Args:
+            spec: An arm with a ``bus:`` section.
+            calibration: Calibration to build the joint mapping with.
+            wire_timing: Time replies as on the wire.
+        """
+        from armctl.servo.mapping import JointMapping
+
+        mapping = JointMapping.from_spec(spec, calibration)
+        assert spec.bus is not None  # JointMapping.from_spec checked it  # mypy.
+        return cls.from_mapping(mapping, spec.bus.protocol, spec.bus.baudrate,
+                                wire_timing=wire_timing)
+
+    @classmethod
+    def from_mapping(cls, mapping: JointMapping, protocol: Protocol, baudrate: int, *,
+                     wire_timing: bool = False) -> SimulatedBus:
+        """A simulated bus with one servo per mapped joint, each at its joint's rest value.
+
+        Servos start as if configured before: multi-turn joints in extended position mode and
+        the homing offsets the mapping assumes (calibrated, or moving the encoder wrap out of
+        a joint's travel) already stored.
+        """
+        servos = []
+        for j in mapping.joints:
+            t = round(j.to_ticks(j.rest))
+            servos.append(SimServoSpec(j.servo_id, j.model, t if j.multi_turn else t % 4096,
+                                       j.homing_offset, j.multi_turn))
+        return cls(servos, protocol, baudrate, wire_timing=wire_timing, mapping=mapping)
+
+    # ---- life cycle -------------------------------------------------------------------------
+    def start(self) -> str:
+        """Create the pty and start answering; returns the port path."""
+        if self._thread is not None:
+            return self.port
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)  # no echo, no CR/NL translation before pyserial opens it
+        tty.setraw(self._master)
+        self.port = os.ttyname(self._slave)
+        self._wake_r, self._wake_w = os.pipe()
+        self._stop.clear()
+        self._started_at = time.monotonic()
+        self._thread = threading.Thread(target=self._run, name="armctl-simbus", daemon=True)
+        self._thread.start()
+        return self.port
+
+    def stop(self) -> None:
+        """Stop answering and close the pty."""
+        if self._thread is None:
+            return
+        self._stop.set()
+        os.write(self._wake_w, b"x")
+        self._thread.join(timeout=2.0)
+        self._thread = None
+        for fd in (self._master, self._slave, self._wake_r, self._wake_w):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+        self._master = self._slave = self._wake_r = self._wake_w = -1
+
+    def __enter__(self) -> SimulatedBus:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    # ---- state for tests and teaching ---------------------------------------------------------
+    def servo(self, servo_id: int) -> SimServo:
+        """The servo whose id register is ``servo_id``.
+
+        Raises:
+            InputError: If no servo has that id.
+        """
+        for s in self.servos:
+            if s.id == servo_id:
+                return s
+        raise InputError(f"no simulated servo with id {servo_id}; ids: "
+                         f"{', '.join(str(s.id) for s in self.servos)}")
+
+    @property
+    def positions(self) -> dict[int, int]:
+        """Present position of every servo [tick], by id."""
+        with self._lock:
+            out = {}
+            for s in self.servos:
+                s.read(0, 1)  # advance the dynamics
+                out[s.id] = s.present_position()
+            return out
+
+    def joint_positions(self) -> dict[str, float]:
+        """Joint values [rad] or [m] through the mapping, by joint name.
+
+        Raises:
+            InputError: If the bus was built without a joint mapping.
+        """
+        mapping = self._need_mapping()
+        ticks = self.positions
+        return {j.name: j.to_joint(ticks[j.servo_id]) for j in mapping.joints}
+
+    def set_joint(self, joint_or_id: str | int, value: float) -> None:
+        """Hand-guide a servo whose torque is off.
+
+        Args:
+            joint_or_id: A joint name (then ``value`` is in joint units, [rad] or [m], converted
+                through the joint mapping) or a servo id (then ``value`` is the present position
+                in [tick]).
+            value: The new position.
+
+        Raises:
+            InputError: For an unknown joint or id, or a servo with torque on (a real servo would
+                resist; turn its torque off first).
+        """
+        if isinstance(joint_or_id, str):
+            joint = self._need_mapping().joint(joint_or_id)
+            sid, ticks = joint.servo_id, round(joint.to_ticks(value))
+        else:
+            sid, ticks = int(joint_or_id), round(value)
+        with self._lock:
+            servo = self.servo(sid)
+            if servo.torque:
+                raise InputError(f"servo {sid} has torque on; it cannot be moved by hand. Turn "
+                                 "its torque off first (set_torque(False) or 'armctl torque').")
+            servo.set_present_position(ticks)
+
+    def _need_mapping(self) -> JointMapping:
+        if self.mapping is None:
+            raise InputError("this simulated bus has no joint mapping; build it with "
+                             "SimulatedBus.from_spec(spec) or address servos by id")
+        return self.mapping
+
+    def power_cycle(self, servo_id: int | None = None) -> None:
+        """Power-cycle one servo (or all): like a reboot, and clears its state faults."""
+        with self._lock:
+            for s in self.servos if servo_id is None else [self.servo(servo_id)]:
+                s.reboot()
+                s.model_override = None
+                s.set(Register.MODEL_NUMBER, s.table.model_number)
+                self._faults = [f for f in self._faults if getattr(f, "servo_id", None) != s.id]
+
+    # ---- faults -------------------------------------------------------------------------------
+    def inject(self, fault: F.Fault, at: float | None = None) -> None:
+        """Inject a fault now, or ``at`` seconds after the bus started.
+
+        Args:
+            fault: One of the fault dataclasses of :mod:`armctl.servo.sim.faults`.
+            at: Time after :meth:`start` [s]; ``None`` means now.
+        """
+        if at is not None:
+            with self._lock:
+                self._scheduled.append((at, fault))
+            return
+        with self._lock:
+            sid = getattr(fault, "servo_id", None)
+            if sid is not None:
+                self.servo(sid)
+            if isinstance(fault, F.HardwareAlarm):
+                servo = self.servo(fault.servo_id)
+                servo.raise_alarm(fault.alarm.feetech_bit if servo.feetech
+                                  else fault.alarm.dynamixel_bit)
+            elif isinstance(fault, F.LockupAfterOverload):
+                servo = self.servo(fault.servo_id)
+                servo.raise_alarm(0x20)
+                servo.locked_up = True
+            elif isinstance(fault, F.WrongModel):
+                servo = self.servo(fault.servo_id)
+                servo.model_override = fault.model_number
+                servo.set(Register.MODEL_NUMBER, fault.model_number)
+            self._faults.append(fault)
+
+    def clear_faults(self, servo_id: int | None = None) -> None:
+        """Remove injected faults (of one servo, or all) and clear their alarms and lock-ups."""
+        with self._lock:
+            keep = []
+            for f in self._faults:
+                sid = getattr(f, "servo_id", None)
+                if servo_id is None or sid == servo_id:
+                    if sid is not None:
+                        s = self.servo(sid)
+                        s.alarm_bits, s.locked_up, s.model_override = 0, False, None
+                        s.set(Register.HARDWARE_ERROR, 0)
+                        s.set(Register.MODEL_NUMBER, s.table.model_number)
+                    continue
+                keep.append(f)
+            self._faults = keep
+            if servo_id is None:
+                self._scheduled.clear()
+
+    @property
+    def faults(self) -> tuple[F.Fault, ...]:
+        """The active faults."""
+        with self._lock:
+            return tuple(self._faults)
+
+    def load_scenario(self, path: str | Path) -> int:
+        """Schedule the faults of a YAML scenario file (see ``docs/bus.md``).
+
+        Returns:
+            The number of faults scheduled.
+        """
+        from armctl.servo.sim.scenario import load_scenario
+
+        items = load_scenario(path)
+        for at, fault in items:
+            self.inject(fault, at if at > 0 else None)
+        return len(items)
+
+    def start_trace(self) -> list[tuple[str, bytes]]:
+        """Record every instruction received (``"rx"``) and reply sent (``"tx"``) from now on.
+
+        Returns:
+            The list the records are appended to.
+        """
+        self.trace = []
+        return self.trace
+
+    def _missing(self, servo: SimServo) -> bool:
+        return servo.locked_up or any(
+            isinstance(f, F.MissingServo) and f.servo_id == servo.id for f in self._faults)
+
+    def _take_reply_faults(self, sid: int) -> list[F.Fault]:
+        """The reply faults that hit this reply (using up one of their count)."""
+        hit: list[F.Fault] = []
+        keep: list[F.Fault] = []
+        for f in self._faults:
+            if isinstance(f, _REPLY_FAULTS) and getattr(f, "servo_id", sid) == sid:
+                hit.append(f)
+                if f.count is not None and f.count > 1:
+                    keep.append(_with_count(f, f.count - 1))
+                elif f.count is None:
+                    keep.append(f)
+            else:
+                keep.append(f)
+        self._faults = keep
+        return hit
+
+    # ---- the bus thread ---------------------------------------------------------------------
+    def _run(self) -> None:
+        buf = bytearray()
+        last_rx = time.monotonic()
+        while not self._stop.is_set():
+            self._fire_scheduled()
+            try:
+                ready, _, _ = select.select([self._master, self._wake_r], [], [], 0.02)
+            except (OSError, ValueError):
+                return
+            now = time.monotonic()
+            if self._master not in ready:
+                if buf and now - last_rx > 0.05:
+                    buf.clear()  # a torn packet: the servos drop it after the byte gap
+                continue
+            try:
+                data = os.read(self._master, 4096)
+            except OSError:
+                time.sleep(0.001)
+                continue
+            last_rx = now
+            buf += data
+            for ins in self._wire.frame(buf):
+                self.requests += 1
+                if self.trace is not None:
+                    self.trace.append(("rx", ins.raw))
+                with self._lock:
+                    try:
+                        replies = self._handle(ins)
+                    except (IndexError, ValueError, OverflowError):
+                        replies = []  # parameters too short or malformed: ignored
+                self._send(ins, replies, now)
+
+    def _fire_scheduled(self) -> None:
+        if not self._scheduled:
+            return
+        elapsed = time.monotonic() - self._started_at
+        with self._lock:
+            due = [f for at, f in self._scheduled if at <= elapsed]
+            self._scheduled = [(at, f) for at, f in self._scheduled if at > elapsed]
+        for f in due:
+            self.inject(f)
+
+    def _send(self, ins: Instruction, replies: list[Reply],
+              received: float) -> None:
+        t = received
+        tick = 10.0 / self.baudrate
+        if self.wire_timing:
+            t = max(received, self._wire_free) + ins.size * tick
+        items: list[tuple[bytes, float]] = []  # (packet, when it is due)
+        for servo, pkt in replies:
+            extra = 0.0
+            if servo is not None:
+                for f in self._take_reply_faults(servo.id):
+                    if isinstance(f, F.DroppedReply):
+                        pkt = b""
+                    elif isinstance(f, F.CorruptedReply) and pkt:
+                        pkt = pkt[:-1] + bytes([pkt[-1] ^ 0x5A])
+                    elif isinstance(f, F.TruncatedReply):
+                        pkt = pkt[:f.keep]
+                    elif isinstance(f, (F.LateReply, F.LatencySpike)):
+                        extra += f.delay
+            if self.wire_timing:
+                t += (servo.return_delay if servo is not None else 0.0) + len(pkt) * tick
+            if pkt:
+                items.append((pkt, t + extra))
+        pending = bytearray()
+        for i, (pkt, due) in enumerate(items):
+            # Sleeping for less than the OS timer allows would make every reply late; so a
+            # reply that is not the last may go out up to _EARLY early. The last one (which
+            # completes the host's transaction) is never early.
+            wait = due - time.monotonic()
+            if wait > (0.0 if i == len(items) - 1 else _EARLY):
+                self._write(pending)
+                pending.clear()
+                time.sleep(wait)
+            if self.trace is not None:
+                self.trace.append(("tx", pkt))
+            pending += pkt
+        self._write(pending)
+        self._wire_free = t
+
+    def _write(self, data: bytes | bytearray) -> None:
+        if data:
+            with contextlib.suppress(OSError):
+                os.write(self._master, data)
+
+    # ---- instruction semantics -------------------------------------------------------------
+    def _handle(self, ins: Instruction) -> list[Reply]:
+        if ins.inst == REBOOT and ins.valid:
+            for s in self.servos:  # a locked-up servo still obeys a reboot, without a reply
+                if s.locked_up and ins.servo_id in (s.id, BROADCAST):
+                    s.reboot()
+                    self._faults = [f for f in self._faults if not (
+                        isinstance(f, F.LockupAfterOverload) and f.servo_id == s.id)]
+                    return []
+        baud = client_baudrate(self._slave)
+        live = {s.id: s for s in self.servos
+                if not self._missing(s) and (baud is None or baud == s.baudrate)}
+        return self._dispatch.handle(ins, live)
+
+
+def _with_count(fault: F.Fault, count: int) -> F.Fault:
+    from dataclasses import replace
+
+    out: F.Fault = replace(fault, count=count)  # type: ignore[arg-type]
+    return out

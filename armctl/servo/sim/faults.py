@@ -1,0 +1,117 @@
+"""Faults the simulated bus can inject, as frozen dataclasses.
+
+Faults that act on replies (:class:`DroppedReply`, :class:`CorruptedReply`,
+:class:`TruncatedReply`, :class:`LateReply`, :class:`LatencySpike`) are used up one reply at a
+time (``count`` replies; ``count=None`` means until cleared). The others are states:
+:class:`MissingServo` (silent, ignores every instruction), :class:`HardwareAlarm` (latched error
+bits), :class:`WrongModel` (reports another model number) and :class:`LockupAfterOverload`
+(overload alarm, then silence until the servo is rebooted or power-cycled).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from armctl.servo.tables import Alarm
+
+__all__ = [
+    "Alarm",
+    "CorruptedReply",
+    "DroppedReply",
+    "Fault",
+    "HardwareAlarm",
+    "LateReply",
+    "LatencySpike",
+    "LockupAfterOverload",
+    "MissingServo",
+    "TruncatedReply",
+    "WrongModel",
+]
+
+
+@dataclass(frozen=True)
+class DroppedReply:
+    """The servo processes the instruction but its reply is lost."""
+
+    servo_id: int
+    count: int | None = 1
+
+
+@dataclass(frozen=True)
+class CorruptedReply:
+    """The reply's CRC/checksum byte is flipped."""
+
+    servo_id: int
+    count: int | None = 1
+
+
+@dataclass(frozen=True)
+class TruncatedReply:
+    """Only the first ``keep`` bytes of the reply are sent."""
+
+    servo_id: int
+    count: int | None = 1
+    keep: int = 5
+
+
+@dataclass(frozen=True)
+class LateReply:
+    """The reply is sent ``delay`` [s] late (past the host's timeout for 60 ms)."""
+
+    servo_id: int
+    count: int | None = 1
+    delay: float = 0.06
+
+
+@dataclass(frozen=True)
+class LatencySpike:
+    """Every reply on the bus is delayed by ``delay`` [s] (a USB or OS hiccup)."""
+
+    count: int | None = 1
+    delay: float = 0.01
+
+
+@dataclass(frozen=True)
+class MissingServo:
+    """The servo is not on the bus (loose cable): it ignores everything."""
+
+    servo_id: int
+
+
+@dataclass(frozen=True)
+class HardwareAlarm:
+    """A latched hardware alarm; overload and overheating also switch torque off."""
+
+    servo_id: int
+    alarm: Alarm = Alarm.OVERLOAD
+
+
+@dataclass(frozen=True)
+class WrongModel:
+    """The servo reports ``model_number`` instead of its own."""
+
+    servo_id: int
+    model_number: int = 1190
+
+
+@dataclass(frozen=True)
+class LockupAfterOverload:
+    """Overload alarm, then no reply to anything until a reboot instruction or power cycle."""
+
+    servo_id: int
+
+
+Fault = (DroppedReply | CorruptedReply | TruncatedReply | LateReply | LatencySpike | MissingServo
+         | HardwareAlarm | WrongModel | LockupAfterOverload)
+
+FAULT_KINDS: dict[str, type] = {
+    "dropped_reply": DroppedReply,
+    "corrupted_reply": CorruptedReply,
+    "truncated_reply": TruncatedReply,
+    "late_reply": LateReply,
+    "latency_spike": LatencySpike,
+    "missing_servo": MissingServo,
+    "hardware_alarm": HardwareAlarm,
+    "wrong_model": WrongModel,
+    "lockup_after_overload": LockupAfterOverload,
+}
