@@ -1,5 +1,6 @@
 """Inverse kinematics: goals, solvers chosen by name, and their common result."""
 
+from armctl.ik.batch import IKBatchResult, solve_batch
 from armctl.ik.goals import (
     DirectionGoal,
     Goal,
@@ -10,6 +11,7 @@ from armctl.ik.goals import (
     Tolerance,
     as_goals,
 )
+from armctl.ik.nullspace import KeepOut, NullSpace
 from armctl.ik.options import IKOptions
 from armctl.ik.registry import available_solvers, get_solver, solve
 from armctl.ik.result import GoalError, IKResult, IKStatus, evaluate, finish
@@ -19,9 +21,12 @@ __all__ = [
     "Goal",
     "GoalError",
     "GoalLike",
+    "IKBatchResult",
     "IKOptions",
     "IKResult",
     "IKStatus",
+    "KeepOut",
+    "NullSpace",
     "OrientationGoal",
     "PoseGoal",
     "PositionGoal",
@@ -32,4 +37,5 @@ __all__ = [
     "finish",
     "get_solver",
     "solve",
+    "solve_batch",
 ]

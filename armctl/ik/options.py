@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from armctl.errors import InputError
+from armctl.ik.nullspace import NullSpace
 
 __all__ = ["IKOptions"]
 
@@ -19,12 +20,15 @@ class IKOptions:
         restarts: Largest number of random restarts after the first attempt.
         seed: Seed of the random generator used for restarts (``None``: fresh entropy); the
             same seed gives the same answer.
+        nullspace: Secondary criteria for ``pinv`` and ``dls`` (comfortable posture, joint-limit
+            avoidance, keep-out spheres, manipulability); ``None`` for none.
     """
 
     max_iterations: int = 100
     time_limit: float = 0.2
     restarts: int = 50
     seed: int | None = 0
+    nullspace: NullSpace | None = None
 
     def __post_init__(self) -> None:
         if self.max_iterations < 1:

@@ -28,7 +28,16 @@ class Solver(Protocol):
 
 
 #: name -> "module:function". One line per solver.
-_SOLVERS: dict[str, str] = {}
+_SOLVERS: dict[str, str] = {
+    "auto": "armctl.ik.auto:auto",
+    "dls": "armctl.ik.numerical:dls",
+    "pinv": "armctl.ik.numerical:pinv",
+    "jt": "armctl.ik.numerical:jt",
+    "ccd": "armctl.ik.numerical:ccd",
+    "ccd-jt": "armctl.ik.numerical:ccd_jt",
+    "nlp": "armctl.ik.nlp.solver:solve",
+    "analytic": "armctl.ik.analytic.solver:solve",
+}
 
 
 def available_solvers() -> tuple[str, ...]:

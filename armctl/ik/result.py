@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -12,7 +14,8 @@ import numpy.typing as npt
 from armctl.ik.goals import Goal
 from armctl.kinematics.model import KinematicModel
 
-__all__ = ["GoalError", "IKResult", "IKStatus", "evaluate", "finish"]
+__all__ = ["CheckedConstraint", "ConstraintError", "GoalError", "IKResult", "IKStatus", "evaluate",
+           "finish"]
 
 Array = npt.NDArray[np.float64]
 
@@ -46,6 +49,47 @@ class GoalError:
     reached: bool
 
 
+class CheckedConstraint(Protocol):
+    """What :func:`finish` needs from a constraint (see :mod:`armctl.ik.nlp.constraints`)."""
+
+    @property
+    def hard(self) -> bool:
+        """Whether it must hold for success (else it is a weighted cost)."""
+        ...
+
+    @property
+    def tolerance(self) -> float:
+        """Largest violation that still counts as holding [m] or [rad]."""
+        ...
+
+    def violation(self, model: KinematicModel, q: npt.NDArray[np.float64]) -> float:
+        """How far ``q`` is from satisfying it, by forward kinematics (0 when it holds)."""
+        ...
+
+    def describe(self, model: KinematicModel) -> str:
+        """A short human-readable name."""
+        ...
+
+
+@dataclass(frozen=True)
+class ConstraintError:
+    """How far one constraint is from holding.
+
+    Attributes:
+        name: What the constraint is, e.g. ``"on plane (frame tool)"``.
+        violation: Its violation [m] or [rad]; 0 when it holds.
+        tolerance: The largest violation that counts as holding.
+        hard: Whether success requires it.
+        satisfied: Whether ``violation <= tolerance``.
+    """
+
+    name: str
+    violation: float
+    tolerance: float
+    hard: bool
+    satisfied: bool
+
+
 @dataclass(frozen=True)
 class IKResult:
     """The outcome of an IK solve.
@@ -67,6 +111,7 @@ class IKResult:
         within_limits: Whether ``q`` is inside the joint limits.
         time: Wall time of the solve [s].
         message: A human-readable summary.
+        constraint_errors: Per-constraint violations (solvers that take constraints).
     """
 
     q: Array
@@ -81,6 +126,7 @@ class IKResult:
     within_limits: bool
     time: float
     message: str = ""
+    constraint_errors: tuple[ConstraintError, ...] = ()
 
 
 def evaluate(model: KinematicModel, goals: tuple[Goal, ...],
@@ -115,6 +161,7 @@ def finish(
     restarts: int,
     started: float,
     message: str = "",
+    constraints: Sequence[CheckedConstraint] = (),
 ) -> IKResult:
     """Build the result, deciding ``success`` from FK and the joint limits.
 
@@ -133,6 +180,8 @@ def finish(
         restarts: Restarts used.
         started: ``time.perf_counter()`` at the start of the solve.
         message: Extra text for the summary.
+        constraints: Constraints (:class:`CheckedConstraint`); success also requires every
+            hard one to hold within its tolerance.
 
     Returns:
         The result.
@@ -141,7 +190,12 @@ def finish(
     qa.setflags(write=False)
     errs = evaluate(model, goals, qa)
     inside = model.within_limits(qa)
-    met = all(e.reached for e in errs)
+    cerrs = []
+    for c in constraints:
+        v = float(c.violation(model, qa))
+        cerrs.append(ConstraintError(c.describe(model), v, float(c.tolerance), bool(c.hard),
+                                     v <= c.tolerance))
+    met = all(e.reached for e in errs) and all(e.satisfied for e in cerrs if e.hard)
     success = met and inside
     if success:
         status = IKStatus.CONVERGED
@@ -153,5 +207,10 @@ def finish(
                f"{dr:.3g} rad{'' if inside else ', outside the joint limits'}")
     if message:
         summary += f"; {message}"
+    broken = [e for e in cerrs if e.hard and not e.satisfied]
+    if broken:
+        worst = max(broken, key=lambda e: e.violation)
+        summary += (f"; {len(broken)} hard constraint(s) violated, worst {worst.name} by "
+                    f"{worst.violation:.3g}")
     return IKResult(qa, success, status, solver, iterations, restarts, dp, dr, errs, inside,
-                    time.perf_counter() - started, summary)
+                    time.perf_counter() - started, summary, tuple(cerrs))

@@ -1,0 +1,304 @@
+"""The ``ik`` command: joint values that bring a frame to a goal."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from armctl.cli._common import add_config, add_json, emit, fmt, load_arm_arg, parse_angles, table
+from armctl.errors import InputError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from armctl.arm import Arm
+    from armctl.ik import Goal, IKOptions, IKResult
+
+ORDER = 20
+
+_DESCRIPTION = """\
+Inverse kinematics: find joint values that bring a frame (the tool by default) to a goal.
+Without --rpy/--quat/--direction only the position is constrained (3 DOF); --direction AXIS DX
+DY DZ points the tool's x, y or z axis along a direction (5 DOF, the goal for 5-joint arms);
+--rpy or --quat give the full pose (6 DOF).
+"""
+
+_EPILOG = """\
+exit codes: 0 solved (every goal met within tolerance, inside the joint limits); 2 bad input;
+3 no solution: the goal was not reached (unreachable, or no start converged within the budgets).
+With exit code 3 the closest configuration found, its pose and the remaining error are printed
+(on stderr; with --json as "error.details" on stdout). Angles are radians unless --deg.
+"""
+
+
+@dataclass(frozen=True)
+class IKRequest:
+    """Everything the command line asks of the solver.
+
+    Attributes:
+        goals: The goals.
+        q0: Start ``(dof,)`` or ``None`` (the middle of the ranges).
+        solver: Registered solver name.
+        options: Budgets and seed.
+        constraints: Extra constraints (solver ``nlp``).
+    """
+
+    goals: tuple[Goal, ...]
+    q0: np.ndarray | None
+    solver: str
+    options: IKOptions
+    constraints: tuple[Any, ...] = ()
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``ik`` command."""
+    p = sub.add_parser("ik", help="inverse kinematics: joint values that reach a pose",
+                       description=_DESCRIPTION, epilog=_EPILOG,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_config(p)
+    add_goal_arguments(p)
+    add_solver_arguments(p)
+    add_constraint_arguments(p)
+    p.add_argument("--tip", help="URDF only: keep the chain to this link")
+    p.add_argument("--all", action="store_true",
+                   help="with --solver analytic: list every solution (nearest to --from first), "
+                        "each with its residual and whether it is inside the joint limits")
+    add_json(p)
+    p.set_defaults(func=cmd_ik)
+
+
+def add_goal_arguments(p: argparse.ArgumentParser) -> None:
+    """Arguments that describe the goal."""
+    p.add_argument("--xyz", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                   help="target position in the base frame [m]")
+    rot = p.add_mutually_exclusive_group()
+    rot.add_argument("--rpy", nargs=3, type=float, metavar=("R", "P", "Y"),
+                     help="target roll, pitch, yaw (URDF convention; radians, degrees with --deg)")
+    rot.add_argument("--quat", nargs=4, type=float, metavar=("W", "X", "Y", "Z"),
+                     help="target orientation as a quaternion (normalised)")
+    rot.add_argument("--direction", nargs=4, metavar=("AXIS", "DX", "DY", "DZ"),
+                     help="point the frame's AXIS (x, y or z) along (DX, DY, DZ): a 5-DOF goal")
+    p.add_argument("--frame", help="the frame that must reach the goal (default: the tool)")
+    p.add_argument("--tol-pos", type=float, default=1e-5, metavar="M",
+                   help="position tolerance [m] (default 1e-5)")
+    p.add_argument("--tol-rot", type=float, default=1e-4, metavar="RAD",
+                   help="rotation tolerance [rad] (default 1e-4)")
+
+
+def add_solver_arguments(p: argparse.ArgumentParser) -> None:
+    """Arguments that choose and tune the solver."""
+    p.add_argument("--solver", default="auto",
+                   help="solver name: auto, dls, pinv, jt, ccd, ccd-jt, ... (default auto)")
+    p.add_argument("--from", dest="q0", nargs="+", metavar="Q",
+                   help="start configuration (default: the middle of the joint ranges)")
+    p.add_argument("--deg", action="store_true", help="angles (--from, --rpy, output) in degrees")
+    p.add_argument("--max-iterations", type=int, default=100, help="iterations per start")
+    p.add_argument("--restarts", type=int, default=50, help="random restarts (default 50)")
+    p.add_argument("--time-limit", type=float, default=0.5, metavar="S",
+                   help="time budget [s] (default 0.5)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the restarts")
+
+
+def add_constraint_arguments(p: argparse.ArgumentParser) -> None:
+    """Constraints and goals files for the ``nlp`` solver (chosen automatically with them)."""
+    p.add_argument("--plane", nargs=6, type=float, action="append",
+                   metavar=("PX", "PY", "PZ", "NX", "NY", "NZ"),
+                   help="hard constraint: the goal frame stays on the plane through PX PY PZ "
+                        "with normal NX NY NZ [m] (repeatable)")
+    p.add_argument("--halfspace", nargs=6, type=float, action="append",
+                   metavar=("PX", "PY", "PZ", "NX", "NY", "NZ"),
+                   help="hard constraint: the goal frame stays on the side of the plane PX PY "
+                        "PZ that the normal NX NY NZ points to (repeatable)")
+    p.add_argument("--keep-out", nargs="+", type=float, action="append", metavar="V",
+                   help="no link enters the sphere CX CY CZ R, or the box XMIN YMIN ZMIN XMAX "
+                        "YMAX ZMAX [m] (repeatable)")
+    p.add_argument("--goals", dest="goals_file", metavar="FILE",
+                   help="YAML goals file with goals and constraints (see docs/nlp.md)")
+
+
+def build_constraints(args: argparse.Namespace) -> tuple[Any, ...]:
+    """The constraints given by --plane, --halfspace and --keep-out."""
+    from armctl.ik.nlp import InHalfSpace, KeepOutBox, KeepOutSphere, OnPlane
+
+    frame = getattr(args, "frame", None)
+    out: list[Any] = []
+    for v in getattr(args, "plane", None) or []:
+        out.append(OnPlane(v[:3], v[3:], frame=frame))
+    for v in getattr(args, "halfspace", None) or []:
+        out.append(InHalfSpace(v[:3], v[3:], frame=frame))
+    for v in getattr(args, "keep_out", None) or []:
+        if len(v) == 4:
+            out.append(KeepOutSphere(v[:3], v[3]))
+        elif len(v) == 6:
+            out.append(KeepOutBox(v[:3], v[3:]))
+        else:
+            raise InputError(f"--keep-out takes 4 numbers (sphere CX CY CZ R) or 6 (box XMIN "
+                             f"YMIN ZMIN XMAX YMAX ZMAX), got {len(v)}")
+    return tuple(out)
+
+
+def build_goals(args: argparse.Namespace, arm: Arm) -> tuple[Goal, ...]:
+    """The goals described by the goal arguments."""
+    import numpy as np
+
+    from armctl.ik import DirectionGoal, OrientationGoal, PoseGoal, PositionGoal, Tolerance
+    from armctl.spatial import make_transform, quat_to_matrix, rpy_to_matrix
+
+    frame = args.frame
+    if frame is not None:
+        arm.frame_index(frame)
+    tol = Tolerance(args.tol_pos, args.tol_rot)
+    rot = None
+    if args.rpy is not None:
+        rpy = np.radians(args.rpy) if args.deg else np.array(args.rpy)
+        rot = rpy_to_matrix(rpy)
+    elif args.quat is not None:
+        quat = np.array(args.quat, dtype=float)
+        if not np.linalg.norm(quat) > 1e-9:
+            raise InputError("--quat: the quaternion must not be zero")
+        rot = quat_to_matrix(quat / np.linalg.norm(quat))
+    if args.xyz is None:
+        if rot is None:
+            raise InputError("give a goal: --xyz X Y Z, optionally with --rpy, --quat or "
+                             "--direction; or --rpy/--quat alone for an orientation goal")
+        return (OrientationGoal(rot, frame=frame, tolerance=tol),)
+    if args.direction is not None:
+        axis_name, *raw = args.direction
+        axes = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+        if axis_name.lower() not in axes:
+            raise InputError(f"--direction: AXIS must be x, y or z, got {axis_name!r}")
+        try:
+            vec = [float(v) for v in raw]
+        except ValueError:
+            raise InputError(f"--direction: DX DY DZ must be numbers, got {raw}") from None
+        return (DirectionGoal(np.array(args.xyz), np.array(vec), np.array(axes[axis_name.lower()]),
+                              frame=frame, tolerance=tol),)
+    if rot is not None:
+        return (PoseGoal(make_transform(rot, args.xyz), frame=frame, tolerance=tol),)
+    return (PositionGoal(np.array(args.xyz), frame=frame, tolerance=tol),)
+
+
+def build_request(args: argparse.Namespace, arm: Arm) -> IKRequest:
+    """The solver request described by all arguments (goals, start, solver, budgets)."""
+    from armctl.ik import IKOptions
+
+    constraints = build_constraints(args)
+    if getattr(args, "goals_file", None):
+        from armctl.ik.nlp.goals_file import load_goals
+
+        doc = load_goals(args.goals_file)
+        goals = doc.goals if args.xyz is None and args.rpy is None and args.quat is None else (
+            *doc.goals, *build_goals(args, arm))
+        constraints = (*doc.constraints, *constraints)
+        for g in goals:
+            arm.frame_index(g.frame)
+    else:
+        goals = build_goals(args, arm)
+    solver = args.solver
+    if constraints and solver == "auto":
+        solver = "nlp"  # the only solver that takes constraints
+    q0 = None
+    if args.q0 is not None:
+        q0 = arm.check_limits(parse_angles(args.q0, args.deg, arm, "--from"), "--from")
+    options = IKOptions(max_iterations=args.max_iterations, time_limit=args.time_limit,
+                        restarts=args.restarts, seed=args.seed)
+    return IKRequest(goals, q0, solver, options, constraints)
+
+
+def cmd_ik(args: argparse.Namespace) -> int:
+    """Solve and print the joint values, the reached pose and the residual error."""
+    from armctl.ik.errors import IKFailedError
+
+    arm = load_arm_arg(args)
+    req = build_request(args, arm)
+    if args.all:
+        return _cmd_all(args, arm, req)
+    res = arm.ik(list(req.goals), req.q0, req.solver, options=req.options,
+                 constraints=req.constraints)
+    data, text = _report(arm, req, res, args.deg)
+    if not res.success:
+        raise IKFailedError(res, f"no solution: {res.message}\nclosest configuration found:\n"
+                            + text, data)
+    emit(args, data, text)
+    return 0
+
+
+def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[str, Any], str]:
+    from armctl.config.schema import JointType
+    from armctl.spatial import matrix_to_quat, matrix_to_rpy
+
+    rows = []
+    for i, name in enumerate(arm.joint_names):
+        v = float(res.q[i])
+        if arm.joint_types[i] is JointType.PRISMATIC:
+            rows.append([name, fmt(v, 6), "m"])
+        else:
+            rows.append([name, fmt(math.degrees(v) if deg else v, 4 if deg else 6),
+                         "deg" if deg else "rad"])
+    lines = [f"{res.message}; {res.iterations} iterations, {res.restarts} restarts, "
+             f"{res.time * 1e3:.2f} ms", "", table(["joint", "value", "unit"], rows, [1]), ""]
+    frames = []
+    for goal, err in zip(req.goals, res.goal_errors, strict=True):
+        pose = arm.fk(res.q, goal.frame)
+        rpy = matrix_to_rpy(pose[:3, :3])
+        shown = [math.degrees(a) for a in rpy] if deg else list(rpy)
+        xyz = "  ".join(fmt(x, 6) for x in pose[:3, 3])
+        lines.append(f"frame {err.frame!r}: position [m] {xyz}"
+                     f"; rpy [{'deg' if deg else 'rad'}] {'  '.join(fmt(a, 4) for a in shown)}")
+        lines.append(f"  residual: position {err.position:.3g} m, rotation {err.rotation:.3g} rad"
+                     f" ({'met' if err.reached else 'NOT met'})")
+        frames.append({"frame": err.frame, "position": pose[:3, 3], "rpy": rpy,
+                       "quaternion": matrix_to_quat(pose[:3, :3]), "matrix": pose,
+                       "position_error": err.position, "rotation_error": err.rotation,
+                       "reached": err.reached})
+    data = {"success": res.success, "status": res.status.value, "solver": res.solver,
+            "q": res.q, "joints": arm.values_by_name(res.q), "iterations": res.iterations,
+            "restarts": res.restarts, "time": res.time, "position_error": res.position_error,
+            "rotation_error": res.rotation_error, "within_limits": res.within_limits,
+            "frames": frames}
+    if res.constraint_errors:
+        lines.append("constraints:")
+        for c in res.constraint_errors:
+            lines.append(f"  {c.name}: violation {c.violation:.3g} "
+                         f"({'holds' if c.satisfied else 'VIOLATED'})")
+        data["constraints"] = [{"name": c.name, "violation": c.violation, "hard": c.hard,
+                                "tolerance": c.tolerance, "satisfied": c.satisfied}
+                               for c in res.constraint_errors]
+    return data, "\n".join(lines)
+
+
+def _cmd_all(args: argparse.Namespace, arm: Arm, req: IKRequest) -> int:
+    """``--all``: every closed-form solution, nearest to the start first."""
+    from armctl.errors import NoSolutionError
+
+    if req.solver != "analytic":
+        raise InputError("--all lists the closed-form solutions; use it with --solver analytic")
+    if len(req.goals) != 1 or req.constraints:
+        raise InputError("--all takes exactly one goal and no constraints")
+    sols = arm.ik_all(req.goals[0], q_ref=req.q0)
+    k = 180.0 / math.pi if args.deg else 1.0
+    rows = [[str(i + 1), "yes" if ok else "no", *(fmt(v * k, 4) for v in q), f"{ep:.1e}",
+             f"{er:.1e}"]
+            for i, (q, ok, ep, er) in enumerate(zip(sols.q, sols.within_limits,
+                                                     sols.position_error, sols.rotation_error,
+                                                     strict=True))]
+    head = (f"{len(sols)} solutions ({int(sols.within_limits.sum())} inside the limits); "
+            f"family: {sols.family}"
+            + (f"; held at --from: {', '.join(sols.free)}" if sols.free else "")
+            + ("; SINGULAR goal: a continuum, representatives shown" if sols.singular else ""))
+    data = {"family": sols.family, "singular": sols.singular, "free": list(sols.free),
+            "count": len(sols), "solutions": [
+                {"q": q, "joints": arm.values_by_name(q), "within_limits": bool(ok),
+                 "position_error": float(ep), "rotation_error": float(er)}
+                for q, ok, ep, er in zip(sols.q, sols.within_limits, sols.position_error,
+                                         sols.rotation_error, strict=True)]}
+    if not len(sols):
+        raise NoSolutionError(f"no solution: the goal is out of reach ({sols.family})")
+    unit = "deg" if args.deg else "rad"
+    text = head + "\n\n" + table(["#", "in limits", *(f"{n} [{unit}]" for n in arm.joint_names),
+                                   "pos err [m]", "rot err [rad]"], rows,
+                                  right=list(range(2, arm.dof + 4)))
+    emit(args, data, text)
+    return 0

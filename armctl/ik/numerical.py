@@ -1,0 +1,229 @@
+"""The seed's numerical IK methods as registered solvers.
+
+The solvers are ``pinv``, ``dls``, ``jt``, ``ccd`` and ``ccd-jt``.
+
+Each iteration linearises the goals with the Jacobian (seed section 7) and takes one step:
+
+* ``pinv`` (section 8): the Moore-Penrose step ``dq = J^+ e`` by SVD (singular values below
+  ``1e-6 s_max`` are dropped); steps are capped at 0.5 rad per joint.
+* ``dls``: damped least squares / Levenberg-Marquardt, ``dq = (J^T J + lambda I)^-1 J^T e``
+  with ``lambda = mu E + 1e-9`` (``E = |e|^2 / 2``): near a goal the step becomes Gauss-Newton,
+  far from it or where steps fail (near singularities, where ``J^T J`` is ill-conditioned) the
+  damping grows: a step that does not lower ``E`` is rejected and ``mu`` multiplied by 8; an
+  accepted step divides it by 4.
+* ``jt`` (section 10): ``dq = alpha J^T e`` with the step length ``alpha`` that minimises the
+  linearised error; a step that does not lower the real error is halved (up to 4 times) or
+  skipped.
+* ``ccd`` (section 11): one sweep turns every joint, tip to base, by the closed-form angle that
+  maximises the seed's ``k1 (1 - cos t) + k2 cos t + k3 sin t`` (position and orientation
+  terms); prismatic joints slide by the closed-form least-squares distance.
+* ``ccd-jt`` (section 12, "combine CCD with J^T"): every iteration is a CCD sweep followed by one
+  optimal J^T step (kept only if it lowers the error), which spreads the correction over all
+  joints.
+
+``pinv`` and ``dls`` add null-space criteria (section 9) when ``options.nullspace`` is set. All
+of them clamp into the joint limits after every step, restart from uniform random
+configurations when an attempt stalls or uses up its iterations, and stop at the time limit.
+"""
+
+from __future__ import annotations
+
+import time
+import weakref
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.errors import InputError
+from armctl.ik import _engine as E
+from armctl.ik._pack import model_arrays, pack_goals, seed_state, wrap_continuous
+from armctl.ik.goals import Goal
+from armctl.ik.nullspace import ns_arrays
+from armctl.ik.options import IKOptions
+from armctl.ik.result import IKResult, IKStatus, finish
+from armctl.kinematics.model import KinematicModel
+
+__all__ = ["MethodParams", "ccd", "ccd_jt", "dls", "jt", "method_params", "pinv", "run_method"]
+
+Array = npt.NDArray[np.float64]
+
+_METHODS = {"pinv": E.PINV, "dls": E.DLS, "jt": E.JT, "ccd": E.CCD, "ccd-jt": E.CCD_JT}
+
+
+@dataclass(frozen=True)
+class MethodParams:
+    """Internal constants of one method.
+
+    Attributes:
+        damping: DLS damping floor ``lambda_0``.
+        window: An attempt stalls when ``E`` did not fall below ``ratio * E`` within this many
+            iterations; it then restarts.
+        ratio: See ``window``.
+        max_step: Largest joint change per step [rad]/[m].
+        rcond: Relative cut-off of singular values for the pseudoinverse.
+        rotation_weight: Weight of the orientation rows of the residual against the position
+            rows [m/rad]; ``None`` for the weight CCD's objective implies.
+    """
+
+    damping: float = 1e-9
+    window: int = 10
+    ratio: float = 0.99
+    max_step: float = 1.0
+    rcond: float = 1e-6
+    rotation_weight: float | None = 1.0
+
+
+_PARAMS = {
+    E.PINV: MethodParams(window=10, ratio=0.99, max_step=0.5),
+    E.DLS: MethodParams(window=10, ratio=0.99, max_step=1.0),
+    E.JT: MethodParams(window=50, ratio=0.999, max_step=0.5, rotation_weight=None),
+    E.CCD: MethodParams(window=20, ratio=0.999, max_step=np.pi),
+    E.CCD_JT: MethodParams(window=20, ratio=0.999, max_step=0.5, rotation_weight=None),
+}
+
+
+_PRM_CACHE: weakref.WeakKeyDictionary[KinematicModel, dict[tuple[Any, ...], Array]] = (
+    weakref.WeakKeyDictionary())
+
+
+def method_params(model: KinematicModel, method: int, options: IKOptions,
+                  params: MethodParams | None = None) -> Array:
+    """The engine's parameter vector for a method (cached per model, method and criteria)."""
+    p = params or _PARAMS[method]
+    cache = _PRM_CACHE.setdefault(model, {})
+    key = (method, p, options.nullspace)
+    got = cache.get(key)
+    if got is None:
+        got = cache[key] = _method_params(model, p, options)
+    return got
+
+
+def _method_params(model: KinematicModel, p: MethodParams, options: IKOptions) -> Array:
+    prm = np.zeros(E.N_PARAMS)
+    prm[E.P_LAMBDA0] = p.damping
+    prm[E.P_WINDOW] = p.window
+    prm[E.P_RATIO] = p.ratio
+    prm[E.P_MAX_STEP] = p.max_step
+    prm[E.P_RHO2] = (0.25 * model_arrays(model).reach) ** 2
+    prm[E.P_RCOND] = p.rcond
+    prm[E.P_MARGIN] = 0.99
+    ns = options.nullspace
+    prm[E.P_NS_ITER] = ns.iterations if ns is not None else 0
+    prm[E.P_NS_GAIN] = ns.gain if ns is not None else 0.0
+    prm[E.P_NS_STEP] = 0.1
+    # None: the weight that CCD's objective gives orientation, sqrt(2 rho2)
+    prm[E.P_ROT_W] = (p.rotation_weight if p.rotation_weight is not None
+                      else np.sqrt(2.0 * prm[E.P_RHO2]))
+    return prm
+
+
+def check_no_constraints(name: str, constraints: Sequence[Any]) -> None:
+    """Raise for constraints, which only the ``nlp`` solver accepts."""
+    if constraints:
+        raise InputError(f"solver {name!r} does not accept constraints "
+                         f"({len(constraints)} given); use solver 'nlp' for constrained IK")
+
+
+def run_method(
+    name: str,
+    model: KinematicModel,
+    goals: tuple[Goal, ...],
+    q0: Array,
+    options: IKOptions,
+    constraints: Sequence[Any],
+    *,
+    trace: Array | None = None,
+    started: float | None = None,
+    label: str | None = None,
+    params: MethodParams | None = None,
+) -> IKResult:
+    """Run one of the numerical methods by name (see the module docstring).
+
+    Args:
+        name: ``pinv``, ``dls``, ``jt``, ``ccd`` or ``ccd-jt``.
+        model: The arm.
+        goals: The goals.
+        q0: Start inside the limits.
+        options: Budgets, seed, null-space criteria.
+        constraints: Must be empty.
+        trace: Optional ``(T, 2)`` array that receives the largest position [m] and rotation
+            [rad] error before each of the first ``T`` iterations of the first attempt.
+        started: ``time.perf_counter()`` at the start of the solve (now when ``None``).
+        label: Solver name in the result (``name`` when ``None``).
+        params: Internal constants instead of the method's defaults (for studies).
+
+    Returns:
+        The result, built by :func:`armctl.ik.result.finish`.
+    """
+    t0 = time.perf_counter() if started is None else started
+    check_no_constraints(name, constraints)
+    method = _METHODS[name]
+    ma = model_arrays(model)
+    ga = pack_goals(model, goals)
+    nsw, pref, spheres = ns_arrays(model, options.nullspace)
+    prm = method_params(model, method, options, params)
+    q_out = np.empty(model.dof)
+    tr = trace if trace is not None else np.empty((0, 2))
+    status, iters, attempts, stalled = E.solve(
+        np.array(q0, dtype=float), ma.lower, ma.upper, model._jd, model._parent,
+        model._fd, model._paths, ga.gf, ga.gt, ga.gd, ga.gw, ga.gtol, ga.mask, method, prm,
+        options.max_iterations, options.restarts + 1,
+        max(options.time_limit - (time.perf_counter() - t0), 1e-9),
+        seed_state(options.seed), nsw, pref, spheres, q_out, tr)
+    return _finish(label or name, model, goals, q_out, ma.continuous, status, iters, attempts,
+                   stalled, t0)
+
+
+def _finish(name: str, model: KinematicModel, goals: tuple[Goal, ...], q: Array,
+            continuous: npt.NDArray[np.bool_], status: int, iters: int, attempts: int,
+            stalled: int, started: float) -> IKResult:
+    q = wrap_continuous(q, continuous)
+    message = ""
+    if status == E.CONVERGED:
+        st = IKStatus.CONVERGED
+    elif status == E.TIME_LIMIT:
+        st = IKStatus.TIME_LIMIT
+        message = f"time limit reached after {attempts} start(s); the closest q found is returned"
+    elif stalled >= attempts:
+        st = IKStatus.UNREACHABLE
+        message = (f"none of {attempts} start(s) reached the goal (each stopped at a minimum "
+                   "of the error); the closest q found is returned")
+    else:
+        st = IKStatus.MAX_ITERATIONS
+        message = (f"iteration budget used up in {attempts} start(s); the closest q found is "
+                   "returned")
+    return finish(model, goals, q, solver=name, status=st, iterations=int(iters),
+                  restarts=max(int(attempts) - 1, 0), started=started, message=message)
+
+
+def pinv(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
+         constraints: Sequence[Any]) -> IKResult:
+    """Moore-Penrose pseudoinverse IK (seed section 8), null-space criteria optional."""
+    return run_method("pinv", model, goals, q0, options, constraints)
+
+
+def dls(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
+        constraints: Sequence[Any]) -> IKResult:
+    """Damped least squares / Levenberg-Marquardt IK, null-space criteria optional."""
+    return run_method("dls", model, goals, q0, options, constraints)
+
+
+def jt(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
+       constraints: Sequence[Any]) -> IKResult:
+    """Jacobian-transpose IK with the optimal step length (seed section 10)."""
+    return run_method("jt", model, goals, q0, options, constraints)
+
+
+def ccd(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
+        constraints: Sequence[Any]) -> IKResult:
+    """Cyclic coordinate descent with the seed's closed-form joint angle (section 11)."""
+    return run_method("ccd", model, goals, q0, options, constraints)
+
+
+def ccd_jt(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
+           constraints: Sequence[Any]) -> IKResult:
+    """CCD sweeps alternated with optimal Jacobian-transpose steps (section 12)."""
+    return run_method("ccd-jt", model, goals, q0, options, constraints)
