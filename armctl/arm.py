@@ -14,6 +14,8 @@ from armctl.kinematics.model import KinematicModel
 
 if TYPE_CHECKING:
     from armctl.ik import GoalLike, IKOptions, IKResult
+    from armctl.ik.analytic import IKSolutions
+    from armctl.ik.goals import Goal
 
 __all__ = ["Arm", "load_arm"]
 
@@ -58,6 +60,32 @@ class Arm(KinematicModel):
         from armctl.ik import solve
 
         return solve(self, goal, q0, solver, options=options, constraints=constraints)
+
+    def ik_all(
+        self,
+        pose: Goal | npt.ArrayLike,
+        q_ref: npt.ArrayLike | None = None,
+        frame: str | None = None,
+    ) -> IKSolutions:
+        """Every inverse kinematics solution of a goal, in closed form.
+
+        Args:
+            pose: A ``(4, 4)`` pose, or a :class:`armctl.ik.PoseGoal`, ``DirectionGoal`` or
+                ``PositionGoal``.
+            q_ref: Reference joint vector [rad]: solutions are sorted by distance to it and
+                redundant joints are held at its values; the middle of the ranges when ``None``.
+            frame: The frame a pose array is for (the tool frame when ``None``).
+
+        Returns:
+            The solutions, each marked inside or outside the joint limits, with its FK residual,
+            and whether the goal is singular (see :class:`armctl.ik.analytic.IKSolutions`).
+
+        Raises:
+            NoDecompositionError: If the arm (or the goal type) has no closed form.
+        """
+        from armctl.ik.analytic import ik_all
+
+        return ik_all(self, pose, q_ref, frame)
 
 
 def load_arm(path: str | Path, tip: str | None = None) -> Arm:

@@ -98,6 +98,10 @@ def cmd_info(args: argparse.Namespace) -> int:
                        rows, right=[0, 4, 5]))
     lines.append("")
     lines.append("end effectors: " + ", ".join(spec.end_effectors))
+    from armctl.ik.analytic.classify import describe
+
+    ik_family = describe(arm)
+    lines.append(f"analytic IK family: {ik_family}")
     if spec.poses:
         lines.append("named poses: " + ", ".join(spec.poses))
     lines.append("")
@@ -107,7 +111,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         "name": spec.name, "dof": arm.dof, "base": spec.base, "tool": spec.tool,
         "end_effectors": list(spec.end_effectors), "joints": joints,
         "frames": list(arm.frame_names), "poses": spec.poses, "source": spec.source,
-        "file": str(spec.file) if spec.file else None,
+        "file": str(spec.file) if spec.file else None, "ik_family": ik_family,
     }
     if spec.bus is not None:
         bus = spec.bus

@@ -1,0 +1,39 @@
+"""Analytic (closed-form) inverse kinematics: every solution of a goal.
+
+A chain is classified from its geometry (:mod:`.classify`): three axes meeting in a point
+(spherical wrist or shoulder), three consecutive parallel axes (UR type), the 5- and 4-joint
+arms with parallel pitch axes, any three joints for a position goal, and, solved by a 1-D
+search rather than in closed form (:mod:`._search`), 6R chains whose axes 5 and 6 (or 1 and 2)
+meet. The family's solver (:mod:`._families`, built from the canonical subproblems in
+:mod:`._subproblems`) yields every candidate; each is polished on the exact forward kinematics
+and kept only if it reaches the goal (:mod:`._polish`). :func:`ik_all` lists all solutions;
+:func:`solve` is the ``"analytic"`` entry of the solver registry. See docs/analytic-ik.md.
+"""
+
+from armctl.ik.analytic.classify import (
+    Decomposition,
+    Family,
+    GoalKind,
+    Tolerances,
+    classify,
+    decomposition,
+    describe,
+)
+from armctl.ik.analytic.errors import NoDecompositionError
+from armctl.ik.analytic.solve_all import ACCEPT, IKSolutions, ik_all
+from armctl.ik.analytic.solver import solve
+
+__all__ = [
+    "ACCEPT",
+    "Decomposition",
+    "Family",
+    "GoalKind",
+    "IKSolutions",
+    "NoDecompositionError",
+    "Tolerances",
+    "classify",
+    "decomposition",
+    "describe",
+    "ik_all",
+    "solve",
+]

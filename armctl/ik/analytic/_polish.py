@@ -1,0 +1,346 @@
+"""Polishing candidates on the exact forward kinematics, and keeping only true solutions.
+
+Every candidate from a closed form is refined by a few Gauss-Newton steps on the model's own FK
+(:mod:`armctl.kinematics._kernels`), then kept only if its residual is within the acceptance
+tolerance; duplicates are merged. This is what makes the answers exact to machine precision and
+what keeps false roots (near-tangent quartic roots, clipped cosines) out.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from armctl.kinematics._kernels import fk_jacobian_into
+
+#: Goal kinds.
+POSE, DIRECTION, POSITION = 0, 1, 2
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def _residual(pose: np.ndarray, kind: int, goal: np.ndarray, p: np.ndarray, d: np.ndarray,
+              a: np.ndarray, e: np.ndarray) -> tuple[float, float]:
+    """Error vector ``e`` (6) to drive to zero, and the position [m] / rotation [rad] errors."""
+    for i in range(3):
+        e[i] = p[i] - pose[i, 3]
+    ep = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+    if kind == POSE:
+        # D = Rg R^T; e_rot = vee(D - D^T) / 2 (= sin(angle) * axis)
+        dm = goal[:3, :3].copy() @ pose[:3, :3].T.copy()
+        e[3] = 0.5 * (dm[2, 1] - dm[1, 2])
+        e[4] = 0.5 * (dm[0, 2] - dm[2, 0])
+        e[5] = 0.5 * (dm[1, 0] - dm[0, 1])
+        s = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+        c = 0.5 * (dm[0, 0] + dm[1, 1] + dm[2, 2] - 1.0)
+        return ep, math.atan2(s, c)
+    if kind == DIRECTION:
+        aw = pose[:3, :3].copy() @ a
+        e[3] = aw[1] * d[2] - aw[2] * d[1]
+        e[4] = aw[2] * d[0] - aw[0] * d[2]
+        e[5] = aw[0] * d[1] - aw[1] * d[0]
+        s = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+        return ep, math.atan2(s, aw[0] * d[0] + aw[1] * d[1] + aw[2] * d[2])
+    e[3] = 0.0
+    e[4] = 0.0
+    e[5] = 0.0
+    return ep, 0.0
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def _solve_sym(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve the small symmetric positive (semi)definite system ``a x = b``.
+
+    Gaussian elimination without pivoting (fine for these matrices) with a floor on the pivots.
+    """
+    n = b.shape[0]
+    m = a.copy()
+    x = b.copy()
+    for k in range(n):
+        piv = m[k, k]
+        if piv <= 1e-300:
+            piv = 1e-300
+        for i in range(k + 1, n):
+            f = m[i, k] / piv
+            for j in range(k, n):
+                m[i, j] -= f * m[k, j]
+            x[i] -= f * x[k]
+    for k in range(n - 1, -1, -1):
+        s = x[k]
+        for j in range(k + 1, n):
+            s -= m[k, j] * x[j]
+        piv = m[k, k] if m[k, k] > 1e-300 else 1e-300
+        x[k] = s / piv
+    return x
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def polish(q: np.ndarray, cols: np.ndarray, kind: int, goal: np.ndarray, p: np.ndarray,
+           d: np.ndarray, a: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
+           f: int, iters: int) -> tuple[float, float]:
+    """Refine ``q`` in place by Levenberg-Marquardt steps on the joints ``cols``.
+
+    The damping starts negligible (Gauss-Newton, quadratic convergence) and grows a hundredfold
+    after a step that does not reduce the error, so candidates near a fold of the workspace
+    (where the Jacobian is nearly singular) still converge instead of stalling.
+
+    Returns:
+        The final position error [m] and rotation error [rad].
+    """
+    n = q.shape[0]
+    k = cols.shape[0]
+    pose = np.empty((4, 4))
+    jac = np.empty((6, n))
+    e = np.empty(6)
+    fk_jacobian_into(q, jd, fd, paths, f, pose, jac)
+    ep, er = _residual(pose, kind, goal, p, d, a, e)
+    best = ep + er
+    trial = q.copy()
+    jtj0 = np.zeros((k, k))
+    grad = np.zeros(k)
+    scale = 0.0
+    damping = 1e-13
+    fresh = True
+    for _ in range(iters):
+        if ep < 2e-15 and er < 2e-15:  # at the FK round-off: nothing left to gain
+            break
+        if fresh:  # linearise at the current iterate
+            js = np.zeros((6, k))
+            for c in range(k):
+                for r in range(6):
+                    js[r, c] = jac[r, cols[c]]
+            if kind == DIRECTION:  # the rotation about the tool axis is free
+                aw = pose[:3, :3].copy() @ a
+                for c in range(k):
+                    w = js[3:, c].copy()
+                    t = w[0] * aw[0] + w[1] * aw[1] + w[2] * aw[2]
+                    for r in range(3):
+                        js[3 + r, c] = w[r] - t * aw[r]
+            jtj0 = js.T @ js
+            grad = js.T @ e
+            scale = np.trace(jtj0) + 1e-300
+        jtj = jtj0.copy()
+        for c in range(k):
+            jtj[c, c] += damping * scale
+        dq = _solve_sym(jtj, grad)
+        for i in range(n):
+            trial[i] = q[i]
+        for c in range(k):
+            trial[cols[c]] += dq[c]
+        fk_jacobian_into(trial, jd, fd, paths, f, pose, jac)
+        ep2, er2 = _residual(pose, kind, goal, p, d, a, e)
+        if ep2 + er2 < best:  # accept (a NaN compares False and is rejected)
+            best = ep2 + er2
+            ep, er = ep2, er2
+            for i in range(n):
+                q[i] = trial[i]
+            damping = max(damping * 0.1, 1e-13)
+            fresh = True
+        else:
+            damping *= 100.0
+            fresh = False
+            if damping > 1e3:
+                break
+    return ep, er
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def finalize(cands: np.ndarray, count: int, cols: np.ndarray, kind: int, goal: np.ndarray,
+             p: np.ndarray, d: np.ndarray, a: np.ndarray, jd: np.ndarray, fd: np.ndarray,
+             paths: np.ndarray, f: int, tol: float, out: np.ndarray,
+             errs: np.ndarray) -> int:
+    """Polish ``count`` candidate rows of ``cands`` and copy the true, distinct ones to ``out``.
+
+    Args:
+        cands: ``(>=count, dof)`` full joint vectors (modified).
+        count: How many rows of ``cands`` are candidates.
+        cols: The joints the polish may move.
+        kind: :data:`POSE`, :data:`DIRECTION` or :data:`POSITION`.
+        goal: ``(4, 4)`` target pose (POSE goals).
+        p: Target position [m].
+        d: Target direction (DIRECTION goals).
+        a: The tool axis that must point along ``d``, in the frame's coordinates.
+        jd: Packed joints of the model (:mod:`armctl.kinematics._kernels`).
+        fd: Packed frames of the model.
+        paths: Joint paths of the model's frames.
+        f: The goal frame's index.
+        tol: Acceptance tolerance on both errors [m] and [rad].
+        out: Receives the solutions, angles of ``cols`` wrapped into (-pi, pi].
+        errs: ``(len(out), 2)`` receives their position and rotation errors.
+
+    Returns:
+        The number of solutions.
+    """
+    m = 0
+    for i in range(count):
+        q = cands[i]
+        ok = True
+        for j in range(q.shape[0]):
+            if not math.isfinite(q[j]):
+                ok = False
+        if not ok:
+            continue
+        ep, er = polish(q, cols, kind, goal, p, d, a, jd, fd, paths, f, 20)
+        if not (ep <= tol and er <= tol):
+            continue
+        for c in range(cols.shape[0]):
+            j = cols[c]
+            w = q[j] - 2.0 * math.pi * math.floor((q[j] + math.pi) / (2.0 * math.pi))
+            q[j] = math.pi if w <= -math.pi else w
+        dup = False
+        for r in range(m):
+            diff = 0.0
+            for c in range(cols.shape[0]):
+                j = cols[c]
+                x = abs(q[j] - out[r, j])
+                diff = max(diff, min(x, 2.0 * math.pi - x))
+            if diff < 1e-6:
+                dup = True
+                break
+        if dup:
+            continue
+        out[m] = q
+        errs[m, 0] = ep
+        errs[m, 1] = er
+        m += 1
+    return m
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def expand(sols: np.ndarray, is_col: np.ndarray, lower: np.ndarray,
+           upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every 2*pi variant of the solved joints (``is_col``) that lies inside its limits.
+
+    A joint with no variant inside its limits keeps its value (the row is then outside them).
+
+    Returns:
+        ``(rows (K, dof), source (K,))``: the variants and the index of the solution each comes
+        from.
+    """
+    m, n = sols.shape
+    two_pi = 2.0 * math.pi
+    lo_k = np.zeros((m, n), dtype=np.int64)
+    cnt = np.ones((m, n), dtype=np.int64)
+    total = 0
+    for i in range(m):
+        prod = 1
+        for j in range(n):
+            if is_col[j] and math.isfinite(lower[j]) and math.isfinite(upper[j]):
+                a = math.ceil((lower[j] - 1e-9 - sols[i, j]) / two_pi)
+                b = math.floor((upper[j] + 1e-9 - sols[i, j]) / two_pi)
+                if b >= a:
+                    lo_k[i, j] = a
+                    cnt[i, j] = b - a + 1
+            prod *= cnt[i, j]
+        total += prod
+    rows = np.empty((total, n))
+    src = np.empty(total, dtype=np.int64)
+    r = 0
+    idx = np.zeros(n, dtype=np.int64)
+    for i in range(m):
+        for j in range(n):
+            idx[j] = 0
+        while True:
+            for j in range(n):
+                rows[r, j] = sols[i, j] + two_pi * (lo_k[i, j] + idx[j])
+            src[r] = i
+            r += 1
+            j = n - 1
+            while j >= 0:
+                idx[j] += 1
+                if idx[j] < cnt[i, j]:
+                    break
+                idx[j] = 0
+                j -= 1
+            if j < 0:
+                break
+    return rows, src
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def assemble(raw: np.ndarray, count: int, joints: np.ndarray, sign: np.ndarray,
+             cols: np.ndarray, is_col: np.ndarray, q_ref: np.ndarray, kind: int,
+             goal: np.ndarray, p: np.ndarray, d: np.ndarray, a: np.ndarray, jd: np.ndarray,
+             fd: np.ndarray, paths: np.ndarray, f: int, tol: float, lower: np.ndarray,
+             upper: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """From closed-form candidates to the sorted list of exact solutions and their variants.
+
+    Args:
+        raw: ``(>=count, >=len(joints))`` candidates in solver-chain order.
+        count: How many rows of ``raw`` are candidates.
+        joints: Model joint index of each solver-chain column.
+        sign: Sign of each solver-chain column (-1: the joint's value is the negated angle).
+        cols: The solved joints (the polish moves these only).
+        is_col: ``(dof,)`` mask of ``cols``.
+        q_ref: ``(dof,)`` reference: held joints keep its values; rows sort by distance to it.
+        kind: The goal kind (see :func:`finalize`).
+        goal: ``(4, 4)`` target pose.
+        p: Target position [m].
+        d: Target direction.
+        a: Tool axis.
+        jd: Packed joints of the model.
+        fd: Packed frames of the model.
+        paths: Joint paths of the model's frames.
+        f: The goal frame's index.
+        tol: Acceptance tolerance [m] and [rad].
+        lower: Lower joint limits.
+        upper: Upper joint limits.
+
+    Returns:
+        ``(q (K, dof), within_limits (K,), errors (K, 2), distances (K,))`` sorted by distance.
+    """
+    dof = q_ref.shape[0]
+    cands = np.empty((max(count, 1), dof))
+    for i in range(count):
+        for j in range(dof):
+            cands[i, j] = q_ref[j]
+        for k in range(joints.shape[0]):
+            if is_col[joints[k]]:
+                cands[i, joints[k]] = sign[k] * raw[i, k]
+    sols = np.empty((max(count, 1), dof))
+    errs = np.empty((max(count, 1), 2))
+    m = finalize(cands, count, cols, kind, goal, p, d, a, jd, fd, paths, f, tol, sols, errs)
+    rows, src = expand(sols[:m], is_col, lower, upper)
+    k = rows.shape[0]
+    dist = np.empty(k)
+    for i in range(k):
+        s = 0.0
+        for j in range(dof):
+            s += (rows[i, j] - q_ref[j]) ** 2
+        dist[i] = math.sqrt(s)
+    order = np.argsort(dist, kind="mergesort")
+    q = np.empty((k, dof))
+    inside = np.empty(k, dtype=np.bool_)
+    e = np.empty((k, 2))
+    ds = np.empty(k)
+    for r in range(k):
+        i = order[r]
+        ok = True
+        for j in range(dof):
+            q[r, j] = rows[i, j]
+            if rows[i, j] < lower[j] - 1e-9 or rows[i, j] > upper[j] + 1e-9:
+                ok = False
+        inside[r] = ok
+        e[r, 0] = errs[src[i], 0]
+        e[r, 1] = errs[src[i], 1]
+        ds[r] = dist[i]
+    return q, inside, e, ds
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def inspect_pose(t: np.ndarray) -> tuple[bool, float, float]:
+    """Of a ``(4, 4)`` array: whether all entries are finite, ``max |R R^T - I|`` and ``det R``."""
+    for i in range(4):
+        for j in range(4):
+            if not math.isfinite(t[i, j]):
+                return False, 0.0, 0.0
+    dev = 0.0
+    for i in range(3):
+        for j in range(3):
+            s = t[i, 0] * t[j, 0] + t[i, 1] * t[j, 1] + t[i, 2] * t[j, 2]
+            dev = max(dev, abs(s - (1.0 if i == j else 0.0)))
+    det = (t[0, 0] * (t[1, 1] * t[2, 2] - t[1, 2] * t[2, 1])
+           - t[0, 1] * (t[1, 0] * t[2, 2] - t[1, 2] * t[2, 0])
+           + t[0, 2] * (t[1, 0] * t[2, 1] - t[1, 1] * t[2, 0]))
+    return True, dev, det

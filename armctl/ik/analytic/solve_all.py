@@ -1,0 +1,256 @@
+"""Every IK solution of a goal, in closed form: :func:`ik_all` and its result."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.errors import InputError
+from armctl.ik.analytic import _families as F
+from armctl.ik.analytic._pipeline import PAIR, PARALLEL, SPHERICAL, pose6
+from armctl.ik.analytic._polish import DIRECTION, POSE, POSITION, assemble, inspect_pose
+from armctl.ik.analytic._search import CAPACITY, one_pair
+from armctl.ik.analytic.chain import Chain, screw
+from armctl.ik.analytic.classify import Decomposition, Family, GoalKind, decomposition
+from armctl.ik.analytic.errors import NoDecompositionError
+from armctl.ik.goals import DirectionGoal, Goal, PoseGoal, PositionGoal
+from armctl.kinematics.model import KinematicModel
+from armctl.spatial import orthonormalize, transform_inverse
+
+__all__ = ["ACCEPT", "IKSolutions", "Target", "as_target", "ik_all"]
+
+Array = npt.NDArray[np.float64]
+
+#: Largest position [m] and rotation [rad] error of a returned solution.
+ACCEPT = 1e-9
+_KIND = {GoalKind.POSE: POSE, GoalKind.DIRECTION: DIRECTION, GoalKind.POSITION: POSITION}
+_CODE = {Family.SPHERICAL_WRIST: SPHERICAL, Family.SPHERICAL_SHOULDER: SPHERICAL,
+         Family.THREE_PARALLEL: PARALLEL, Family.THREE_PARALLEL_OUTER: PARALLEL,
+         Family.PAIR_SEARCH: PAIR, Family.PAIR_SEARCH_INVERTED: PAIR}
+
+
+@dataclass(frozen=True)
+class IKSolutions:
+    """All solutions of one goal.
+
+    Attributes:
+        q: ``(m, dof)`` joint vectors [rad], sorted by distance to ``q_ref``; every 2*pi variant
+            of a joint that fits in its range is listed separately.
+        within_limits: ``(m,)`` whether each row lies inside the joint limits.
+        position_error: ``(m,)`` FK position error of each row [m].
+        rotation_error: ``(m,)`` FK rotation (or direction) error of each row [rad].
+        singular: True when the goal has a continuum of solutions (e.g. wrist axes aligned);
+            the rows are then representatives of it.
+        family: The decomposition used (see :mod:`armctl.ik.analytic.classify`).
+        free: Names of the joints held at their ``q_ref`` value (the free joint of a redundant
+            arm; for a position goal, every joint but the three that place the point).
+        q_ref: The reference configuration the rows are sorted by [rad].
+    """
+
+    q: Array
+    within_limits: npt.NDArray[np.bool_]
+    position_error: Array
+    rotation_error: Array
+    singular: bool
+    family: str
+    free: tuple[str, ...]
+    q_ref: Array
+
+    def __len__(self) -> int:
+        return int(self.q.shape[0])
+
+    @property
+    def valid(self) -> Array:
+        """The rows inside the joint limits ``(k, dof)``, nearest to ``q_ref`` first."""
+        return self.q[self.within_limits]
+
+    @property
+    def best(self) -> Array | None:
+        """The valid solution nearest to ``q_ref``, or None when there is none."""
+        v = self.valid
+        return v[0] if len(v) else None
+
+
+@dataclass(frozen=True)
+class Target:
+    """A goal as the kernels take it.
+
+    Attributes:
+        kind: What it constrains.
+        frame: The goal frame (``None``: the tool).
+        pose: ``(4, 4)`` target pose (identity unless ``kind`` is POSE).
+        position: Target position [m].
+        direction: Target unit direction (DIRECTION goals; zeros otherwise).
+        axis: The tool axis that must point along it, in the frame's coordinates.
+    """
+
+    kind: GoalKind
+    frame: str | None
+    pose: Array
+    position: Array
+    direction: Array
+    axis: Array
+
+
+def as_target(goal: Goal | npt.ArrayLike, frame: str | None = None) -> Target:
+    """The kernels' form of a goal object or of a ``(4, 4)`` pose array (for ``frame``).
+
+    Raises:
+        NoDecompositionError: For an orientation-only goal.
+        InputError: For a frame mismatch or a bad pose array.
+    """
+    if isinstance(goal, Goal):
+        if frame is not None and goal.frame != frame:
+            raise InputError(f"the goal names frame {goal.frame!r} but frame={frame!r} was given")
+        # writable C-contiguous copies: the kernels are compiled for one array type
+        if isinstance(goal, PoseGoal):
+            pose = np.array(goal.pose)
+            return Target(GoalKind.POSE, goal.frame, pose, pose[:3, 3].copy(), np.zeros(3),
+                          np.zeros(3))
+        if isinstance(goal, DirectionGoal):
+            return Target(GoalKind.DIRECTION, goal.frame, np.eye(4), np.array(goal.position),
+                          np.array(goal.direction), np.array(goal.axis))
+        if isinstance(goal, PositionGoal):
+            return Target(GoalKind.POSITION, goal.frame, np.eye(4), np.array(goal.position),
+                          np.zeros(3), np.zeros(3))
+        raise NoDecompositionError(
+            "the analytic solvers take pose, position + direction or position goals; an "
+            f"{type(goal).__name__} (orientation only) has no closed form here",
+            "use solver 'dls' or 'nlp'")
+    arr = np.array(goal, dtype=float)
+    if arr.shape != (4, 4):
+        raise InputError(f"a pose must be a finite 4x4 transform, got shape {arr.shape}")
+    finite, dev, det = inspect_pose(arr)
+    if not finite:
+        raise InputError("a pose must be a finite 4x4 transform; it contains NaN or inf")
+    if dev > 1e-6 or det < 0:
+        raise InputError("the pose's rotation part is not a rotation matrix (R R^T != I or "
+                         "det < 0)")
+    if dev > 1e-14:
+        arr[:3, :3] = orthonormalize(arr[:3, :3])
+    arr[3] = (0.0, 0.0, 0.0, 1.0)
+    return Target(GoalKind.POSE, frame, arr, arr[:3, 3].copy(), np.zeros(3), np.zeros(3))
+
+
+def _chain_ref(chain: Chain, q_ref: Array) -> Array:
+    return chain.sign * q_ref[chain.index]
+
+
+def _run(dec: Decomposition, goal: Target, q_ref: Array, out: Array) -> tuple[int, bool, Chain]:
+    """Run the closed form; candidates (solver chain order) into ``out``."""
+    chain = dec.chain
+    fam = dec.family
+    if fam is Family.POSITION_3R:
+        # held joints fold into the axes after them and into the tool point: the point is
+        # E_i E_j E_k (G t0) with each solved axis moved by the held motions before it
+        g = np.eye(4)
+        hs, os, js = [], [], []
+        solved = set(dec.solved)
+        for k, j in enumerate(chain.joints):
+            if j in solved:
+                hs.append(g[:3, :3] @ chain.h[k])
+                os.append(g[:3, :3] @ chain.o[k] + g[:3, 3])
+                js.append(j)
+            else:
+                g = g @ screw(chain.h[k], chain.o[k], q_ref[j])
+        w = g[:3, :3] @ chain.m[:3, 3] + g[:3, 3]
+        sub = Chain(tuple(js), np.array(hs), np.array(os), chain.m, np.ones(3))
+        n, sing = F.pos3(sub.h, sub.o, w, goal.position, q_ref[js], out)
+        return n, sing, sub
+    if fam in (Family.PARALLEL_DIRECTION, Family.YAW_PARALLEL_DIRECTION):
+        fn = (F.three_parallel_direction if fam is Family.PARALLEL_DIRECTION
+              else F.yaw_three_parallel_direction)
+        n, sing = fn(chain.h, chain.o, chain.m, goal.position,
+                     goal.direction, goal.axis, _chain_ref(chain, q_ref),
+                     out)
+        return n, sing, chain
+    target = goal.pose
+    if dec.free:
+        chain, target = _hold(dec, chain, q_ref, target)
+    if dec.inverted:
+        target = transform_inverse(target)
+    fn6 = {SPHERICAL: F.spherical_wrist, PARALLEL: F.three_parallel, PAIR: one_pair}[_CODE[fam]]
+    n, sing = fn6(chain.h, chain.o, chain.m, target, _chain_ref(chain, q_ref), out)
+    return n, sing, chain
+
+
+def _hold(dec: Decomposition, chain: Chain, q_ref: Array, target: Array) -> tuple[Chain, Array]:
+    """Fold the held end joint (at its reference value) into the tool or into the goal."""
+    j = dec.free[0]
+    whole = dec.whole
+    k = whole.joints.index(j)
+    e = screw(whole.h[k], whole.o[k], q_ref[j])
+    if k == whole.n - 1:  # last joint held: it moves the tool pose
+        full = chain.reversed() if dec.inverted else chain
+        full = Chain(full.joints, full.h, full.o, e @ full.m, full.sign)
+        return (full.reversed() if dec.inverted else full), target
+    return chain, transform_inverse(e) @ target  # first joint held: it moves the goal
+
+
+def ik_all(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLike | None = None,
+           frame: str | None = None, *, tol: float = ACCEPT,
+           free_values: npt.ArrayLike | None = None) -> IKSolutions:
+    """Every solution of a goal, in closed form, polished to machine precision.
+
+    Args:
+        model: The arm.
+        pose: A ``(4, 4)`` pose, or a :class:`PoseGoal`, :class:`DirectionGoal` or
+            :class:`PositionGoal`.
+        q_ref: Reference configuration [rad]: rows are sorted by distance to it, redundant joints
+            are held at its values, and continua take their representatives from it. The middle
+            of the joint ranges when ``None``.
+        frame: The frame for a pose array (the tool when ``None``).
+        tol: Largest accepted FK error of a solution [m] and [rad].
+        free_values: Values [rad] at which to hold the one free joint of a redundant arm (the
+            Panda's joint 7), each solved in turn; the solutions of all of them are listed
+            together. ``None``: the joint's ``q_ref`` value.
+
+    Returns:
+        The solutions (possibly none: the goal is out of reach).
+
+    Raises:
+        NoDecompositionError: If the chain or the goal type has no closed form here.
+        InputError: For a bad goal or ``q_ref``.
+    """
+    goal = as_target(pose, frame)
+    dec = decomposition(model, goal.frame, goal.kind)
+    ref = model.middle() if q_ref is None else np.array(model.as_q(q_ref, "q_ref"))
+    if free_values is None:
+        q, inside, errs, singular = _solve(model, dec, goal, ref, tol)
+    else:
+        if len(dec.free) != 1:
+            raise InputError(f"free_values needs exactly one free joint; {dec.label} holds "
+                             f"{len(dec.free)}")
+        parts = []
+        for v in np.atleast_1d(np.asarray(free_values, dtype=float)):
+            held = ref.copy()
+            held[dec.free[0]] = v
+            parts.append(_solve(model, dec, goal, held, tol))
+        q = np.concatenate([p[0] for p in parts])
+        order = np.argsort(np.linalg.norm(q - ref, axis=1), kind="stable")
+        q = q[order]
+        inside = np.concatenate([p[1] for p in parts])[order]
+        errs = np.concatenate([p[2] for p in parts])[order]
+        singular = any(p[3] for p in parts)
+    return IKSolutions(q, inside, errs[:, 0], errs[:, 1], singular, dec.label,
+                       dec.free_names, ref)
+
+
+def _solve(model: KinematicModel, dec: Decomposition, goal: Target, ref: Array,
+           tol: float) -> tuple[Array, npt.NDArray[np.bool_], Array, bool]:
+    """Closed form, polish, variants and ordering for one reference configuration."""
+    if goal.kind is GoalKind.POSE and not dec.free:  # the hot path: one compiled call
+        code = _CODE[dec.family]
+        c = dec.chain
+        return pose6(code, dec.inverted, c.h, c.o, c.m, c.index, c.sign, dec.columns, dec.mask,
+                     ref, goal.pose, model._jd, model._fd, model._paths,
+                     model.frame_index(goal.frame), tol, model.lower, model.upper)
+    raw = np.empty((CAPACITY, 7))
+    n, singular, chain = _run(dec, goal, ref, raw)
+    q, inside, errs, _ = assemble(raw, n, chain.index, chain.sign, dec.columns,
+                                  dec.mask, ref, _KIND[goal.kind], goal.pose, goal.position,
+                                  goal.direction, goal.axis, model._jd, model._fd, model._paths,
+                                  model.frame_index(goal.frame), tol, model.lower, model.upper)
+    return q, inside, errs, bool(singular)
