@@ -6,12 +6,12 @@ by the functions that need them. See ``docs/render.md``.
 
 from __future__ import annotations
 
+from armctl.kinematics.capsules import LinkCapsule, collision_capsules, shape_capsule
+from armctl.kinematics.linkshapes import GeometryRole, LinkShapes, link_shapes
 from armctl.render.animation import Animation, render_animation
 from armctl.render.binding import BoundGeometry, BoundShape, link_meshes
-from armctl.render.capsules import LinkCapsule, collision_capsules, shape_capsule
 from armctl.render.draw import ArmArtist, Bounds, Camera, View, draw_path
 from armctl.render.errors import MeshLoadError, MissingToolError, OutputError
-from armctl.render.linkshapes import GeometryRole, LinkShapes, link_shapes
 from armctl.render.picture import PathPicture, PosePicture, Target, render_path, render_pose
 from armctl.render.shapes import TriMesh, shape_mesh
 from armctl.render.workspace import Workspace, plot_workspace, sample_workspace

@@ -13,8 +13,8 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.config.schema import Geometry
+from armctl.kinematics.linkshapes import GeometryRole, link_shapes
 from armctl.kinematics.model import KinematicModel
-from armctl.render.linkshapes import GeometryRole, link_shapes
 from armctl.render.shapes import TriMesh, shape_mesh
 
 __all__ = ["BoundGeometry", "BoundShape", "link_meshes"]

@@ -182,6 +182,17 @@ class LiveView:
         frame = self._frames[link]
         return make_transform(quat_to_matrix(np.asarray(frame.wxyz)), np.asarray(frame.position))
 
+    def shown(self, link: str) -> tuple[Array, Array]:
+        """The joint values and a link's pose as shown, read together.
+
+        The two are consistent while a :meth:`follow` thread updates the view.
+
+        Returns:
+            ``(q, pose)``: ``(dof,)`` joint values and the ``(4, 4)`` pose of ``link``.
+        """
+        with self._lock:
+            return np.array(self.q), self.link_pose(link)
+
     def target_pose(self) -> Array:
         """The draggable target's pose ``(4, 4)`` in the base frame."""
         return make_transform(quat_to_matrix(np.asarray(self._target.wxyz)),

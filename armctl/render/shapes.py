@@ -2,7 +2,8 @@
 
 Every function returns a :class:`TriMesh` in the frame the shape is defined in (its ``origin``
 already applied), with outward-facing triangles (counter-clockwise seen from outside).
-Mesh files are read with trimesh, imported only when a mesh is actually loaded.
+Mesh files are read with :func:`armctl.kinematics.linkshapes.read_mesh` (trimesh, imported only
+when a mesh is actually loaded).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.config.schema import Box, Capsule, Cylinder, Geometry, Mesh, Sphere
-from armctl.render.errors import MeshLoadError
+from armctl.kinematics.linkshapes import read_mesh
 
 __all__ = [
     "MAX_MESH_FACES",
@@ -127,14 +128,9 @@ def capsule_mesh(radius: float, length: float, segments: int = 20) -> TriMesh:
 
 
 @lru_cache(maxsize=64)
-def _load_cached(path: Path, mtime: float) -> TriMesh:
-    import trimesh
-
-    loaded = trimesh.load(str(path), force="mesh", process=False)
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise ValueError("the file holds no triangles")
-    out = TriMesh(np.asarray(loaded.vertices, dtype=float),
-                  np.asarray(loaded.faces, dtype=np.int64))
+def _drawable(path: Path, mtime: float) -> TriMesh:
+    vertices, faces = read_mesh(path)
+    out = TriMesh(vertices, faces)
     return decimate(out, MAX_MESH_FACES) if len(out.faces) > MAX_MESH_FACES else out
 
 
@@ -179,18 +175,8 @@ def load_mesh_file(path: Path, link: str = "?", config: Path | None = None) -> T
         MeshLoadError: If the file is missing or cannot be read.
     """
     path = Path(path)
-    if not path.is_file():
-        raise MeshLoadError(path, link, "file not found", config)
-    try:
-        return _load_cached(path.resolve(), path.stat().st_mtime)
-    except MeshLoadError:
-        raise
-    except ImportError as exc:
-        raise MeshLoadError(path, link, f"a package needed to read it is missing ({exc})",
-                            config) from exc
-    except Exception as exc:  # trimesh raises many kinds for bad files
-        raise MeshLoadError(path, link, f"cannot be read ({type(exc).__name__}: {exc})",
-                            config) from exc
+    read_mesh(path, link, config)  # cached: the errors name the file as given
+    return _drawable(path.resolve(), path.stat().st_mtime)
 
 
 def shape_mesh(shape: Geometry, link: str = "?", config: Path | None = None) -> TriMesh:

@@ -18,6 +18,7 @@ from armctl.render import (
     collision_capsules,
     link_meshes,
     link_shapes,
+    shape_capsule,
     shape_mesh,
 )
 from armctl.render.errors import MeshLoadError
@@ -192,9 +193,34 @@ def test_capsules_contain_their_shapes():
                                0.25)
 
 
-def test_capsule_exact_for_capsules_and_spheres():
-    from armctl.render.capsules import shape_capsule
+def test_mesh_capsule_contains_raw_and_simplified_vertices(tmp_path):
+    # a long, placed ellipsoid with more triangles than the drawing keeps: the capsule is fitted to
+    # the file's own vertices, so it holds them and the simplified ones drawn
+    import trimesh
 
+    from armctl.render.shapes import MAX_MESH_FACES
+
+    blob = trimesh.creation.icosphere(subdivisions=5, radius=1.0)
+    assert len(blob.faces) > MAX_MESH_FACES
+    blob.apply_scale([0.2, 0.03, 0.05])
+    blob.export(tmp_path / "blob.stl")
+    shape = Mesh(tmp_path / "blob.stl", (1.0, 1.5, 1.0), Origin((0.1, 0.0, 0.2), (0.3, 0.0, 0.0)))
+    a, b, r = shape_capsule(shape, "blob")
+    drawn = shape_mesh(shape, "blob").vertices
+    assert len(drawn) < len(blob.vertices)
+    t = origin_matrix({"xyz": [0.1, 0.0, 0.2], "rpy": [0.3, 0.0, 0.0]})
+    raw = (np.asarray(blob.vertices) * [1.0, 1.5, 1.0]) @ t[:3, :3].T + t[:3, 3]
+    for v in (raw, drawn):
+        assert np.all(seg_dist(v, a, b) <= r + 1e-6)
+    # along the long axis (x in the file), as long as the ellipsoid, radius its largest half axis
+    # across (0.05 on z; 0.045 on the scaled y)
+    np.testing.assert_allclose(np.abs(b - a) / np.linalg.norm(b - a),
+                               np.abs(t[:3, 0]), atol=1e-6)
+    assert np.linalg.norm(b - a) == pytest.approx(0.4, abs=1e-3)
+    assert r == pytest.approx(0.05, abs=1e-3)
+
+
+def test_capsule_exact_for_capsules_and_spheres():
     a, b, r = shape_capsule(Capsule(0.02, 0.3, Origin((1.0, 2.0, 3.0), (0.0, math.pi / 2, 0.0))))
     np.testing.assert_allclose(sorted([a[0], b[0]]), [0.85, 1.15], atol=1e-12)
     assert r == 0.02

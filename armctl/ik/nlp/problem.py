@@ -1,0 +1,330 @@
+"""The CasADi problem for one arm and one goal structure, built once and cached.
+
+The cost is a sum of squared residuals::
+
+    sum_goals w_g |r_g(q)|^2 + sum_soft w_c |g_c(q)|^2 + lambda |q - q_ref|^2
+
+with position residuals divided by the arm's reach ``L`` and orientation residuals written as
+``(rho / L) (R - R_target)`` (Frobenius form: smooth everywhere, zero only at the target, no
+wrap-around), subject to the joint limits and the hard constraints' rows. The Hessian handed to
+the solver is the Gauss-Newton one, ``2 J^T J`` (positive semi-definite, exact at a reached
+goal), plus the exact Hessian of the constraint rows.
+
+Everything that changes between solves (targets, weights, constraint numbers, ``q_ref``,
+``lambda``) is a parameter, so a new target reuses the built solver; :func:`build_count` counts
+the builds so tests can assert it.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.errors import InputError
+from armctl.ik.goals import DirectionGoal, Goal, OrientationGoal, PoseGoal, PositionGoal
+from armctl.ik.nlp.constraints import AxisInCone, Constraint, Segment
+from armctl.ik.nlp.options import Method, NLPOptions
+from armctl.kinematics.capsules import arm_capsules
+from armctl.kinematics.model import KinematicModel
+
+__all__ = ["Attempt", "Problem", "build_count", "clear_cache", "get_problem", "reach"]
+
+Array = npt.NDArray[np.float64]
+
+_BUILDS = 0
+#: Iteration cap of the warm-start instance without hard constraints: near the answer it needs
+#: 3-6; beyond this the start was not near after all and a seeded restart is cheaper.
+_WARM_ITERATIONS = 15
+_CACHE: weakref.WeakKeyDictionary[KinematicModel, dict[tuple[object, ...], Problem]] = (
+    weakref.WeakKeyDictionary())
+
+
+def build_count() -> int:
+    """How many CasADi problems have been built in this process."""
+    return _BUILDS
+
+
+def clear_cache() -> None:
+    """Forget every built problem."""
+    _CACHE.clear()
+
+
+def reach(model: KinematicModel) -> float:
+    """The arm's reach scale: the longest sum of link offsets from the base to a frame [m]."""
+    best = 0.0
+    for f in range(len(model.frame_names)):
+        total = float(np.linalg.norm(model._fd[f].reshape(3, 4)[:, 3]))
+        for j in model._paths[f]:
+            if j < 0:
+                break
+            total += float(np.linalg.norm(model._jd[j, :12].reshape(3, 4)[:, 3]))
+        best = max(best, total)
+    return max(best, 1e-3)
+
+
+def _goal_params(goal: Goal) -> Array:
+    w = [goal.weight]
+    if isinstance(goal, PoseGoal):
+        return np.concatenate([goal.position, goal.rotation.ravel(order="F"), w])
+    if isinstance(goal, PositionGoal):
+        return np.concatenate([goal.position, w])
+    if isinstance(goal, OrientationGoal):
+        return np.concatenate([goal.rotation.ravel(order="F"), w])
+    if isinstance(goal, DirectionGoal):
+        return np.concatenate([goal.position, goal.direction, goal.axis, w])
+    raise InputError(f"the nlp solver does not know the goal type {type(goal).__name__}; use "
+                     "PositionGoal, OrientationGoal, DirectionGoal or PoseGoal")
+
+
+def structure_key(model: KinematicModel, goals: Sequence[Goal],
+                  constraints: Sequence[Constraint], options: NLPOptions) -> tuple[object, ...]:
+    """Everything that fixes the shape of the problem; numbers are left out."""
+    return (
+        tuple((type(g).__name__, g.frame or model.tool) for g in goals),
+        tuple(c.structure() for c in constraints),
+        _method(options, constraints), options.max_iterations, options.orientation_scale,
+    )
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One run of the NLP solver.
+
+    Attributes:
+        q: The joint vector it ended at, clipped into the limits.
+        iterations: Solver iterations.
+        solver_status: The solver's own return status.
+        locally_infeasible: Whether the solver found the hard constraints locally infeasible.
+    """
+
+    q: Array
+    iterations: int
+    solver_status: str
+    locally_infeasible: bool
+
+
+class Problem:
+    """A built CasADi NLP for one arm, goal structure and constraint structure.
+
+    Args:
+        model: The arm.
+        goals: Goals (their numbers only serve as examples of the structure).
+        constraints: Constraints (likewise).
+        options: Method, iteration budget, scales.
+    """
+
+    def __init__(self, model: KinematicModel, goals: Sequence[Goal],
+                 constraints: Sequence[Constraint], options: NLPOptions):
+        import casadi as ca
+
+        from armctl.kinematics.symbolic import SymbolicFK
+
+        self.model = model
+        self.method = method = _method(options, constraints)
+        self.length = reach(model)
+        rho = options.orientation_scale or 0.3 * self.length
+        sizes = [len(_goal_params(g)) for g in goals] + [len(c.params()) + (0 if c.hard else 1)
+                                                         for c in constraints]
+        self.n_params = sum(sizes) + model.dof + 2
+        p = ca.SX.sym("p", self.n_params)
+        sym = SymbolicFK(model)
+        q = sym.q
+        inv_len, rot_scale = 1.0 / self.length, rho / self.length
+        residuals: list[Any] = []
+        rows: list[Any] = []
+        lbg: list[float] = []
+        at = 0
+        for goal, size in zip(goals, sizes[:len(goals)], strict=True):
+            gp = p[at:at + size]
+            at += size
+            rot, pos = sym.frame(goal.frame)
+            sw = ca.sqrt(gp[size - 1])
+            if isinstance(goal, PoseGoal):
+                r = ca.vertcat((pos - gp[0:3]) * inv_len,
+                               rot_scale * ca.vec(rot - ca.reshape(gp[3:12], 3, 3)))
+            elif isinstance(goal, PositionGoal):
+                r = (pos - gp[0:3]) * inv_len
+            elif isinstance(goal, OrientationGoal):
+                r = rot_scale * ca.vec(rot - ca.reshape(gp[0:9], 3, 3))
+            else:  # DirectionGoal
+                r = ca.vertcat((pos - gp[0:3]) * inv_len, rot_scale * (rot @ gp[6:9] - gp[3:6]))
+            residuals.append(sw * r)
+        by_radius: dict[float | None, list[Segment]] = {}
+
+        def segments(radius: float | None) -> list[Segment]:
+            if radius not in by_radius:
+                by_radius[radius] = []
+                for cap in arm_capsules(model, radius):
+                    a, b = np.array(cap.a), np.array(cap.b)
+                    by_radius[radius].append((sym.point(cap.body, a), sym.point(cap.body, b),
+                                              cap.radius, float(np.linalg.norm(b - a))))
+            return by_radius[radius]
+
+        for c, size in zip(constraints, sizes[len(goals):], strict=True):
+            cp = p[at:at + size]
+            at += size
+            rot, pos = sym.frame(c.frame) if not c.on_links else (None, None)
+            on_links = segments(getattr(c, "link_radius", None)) if c.on_links else []
+            g_rows = c.rows(ca, rot, pos, on_links, cp)
+            if c.hard:
+                rows.append(g_rows)
+                lbg += [0.0 if c.equality else -np.inf] * int(g_rows.numel())
+            else:
+                scale = rot_scale if isinstance(c, AxisInCone) else inv_len
+                viol = g_rows if c.equality else ca.fmax(g_rows, 0)
+                residuals.append(ca.sqrt(cp[size - 1]) * scale * viol)
+        q_ref = p[at:at + model.dof]
+        lam = p[at + model.dof]
+        damping = p[at + model.dof + 1]
+        residuals.append(ca.sqrt(lam) * (q - q_ref))
+        res = ca.vertcat(*residuals)
+        g = ca.vertcat(*rows) if rows else ca.SX(0, 1)
+        self.lbg = np.array(lbg)
+        self.ubg = np.zeros(len(lbg))
+        self.n_constraints = len(lbg)
+        jac = ca.jacobian(res, q)
+        lam_f = ca.SX.sym("lam_f")
+        lam_g = ca.SX.sym("lam_g", self.n_constraints)
+        # Gauss-Newton plus Levenberg-Marquardt damping: bounded steps where the goals leave
+        # directions free (redundancy, position-only goals) and the regularisation is tiny
+        hess = 2 * lam_f * (jac.T @ jac + damping * ca.SX.eye(model.dof))
+        if self.n_constraints:
+            hess = hess + ca.hessian(ca.dot(lam_g, g), q)[0]
+        if method is Method.IPOPT:
+            hess = ca.triu(hess)
+        hess_fn = ca.Function("hess_lag", [q, p, lam_f, lam_g], [hess],
+                              ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
+        nlp = {"x": q, "p": p, "f": ca.sumsqr(res), "g": g}
+        # two instances of the same problem: tuned for a warm start near the answer (streaming,
+        # polishing), and for a cold start far from it (restarts)
+        self.solvers = {warm: ca.nlpsol(f"armctl_ik_{'warm' if warm else 'cold'}",
+                                        method.value, nlp,
+                                        _solver_options(method, options, hess_fn,
+                                                        self.n_constraints, warm))
+                        for warm in (True, False)}
+        self._warm: tuple[Array, Any, Any] | None = None
+
+    def params(self, goals: Sequence[Goal], constraints: Sequence[Constraint], q_ref: Array,
+               regularization: float, damping: float) -> Array:
+        """The parameter vector for these goals' and constraints' numbers.
+
+        Args:
+            goals: The goals.
+            constraints: The constraints.
+            q_ref: Centre of the regularisation ``(dof,)``.
+            regularization: Its weight.
+            damping: Levenberg-Marquardt damping added to the Hessian approximation.
+        """
+        parts = [_goal_params(g) for g in goals]
+        for c in constraints:
+            parts.append(c.params() if c.hard else np.concatenate([c.params(), [c.weight]]))
+        parts += [np.asarray(q_ref, dtype=float), np.array([regularization, damping])]
+        out = np.concatenate(parts)
+        if out.shape != (self.n_params,):  # pragma: no cover - guarded by the structure key
+            raise InputError("goal structure does not match the built problem")
+        return out
+
+    def recentred(self, params: Array, q_ref: Array) -> Array:
+        """``params`` with the regularisation centred on ``q_ref``."""
+        out = params.copy()
+        dof = self.model.dof
+        out[-2 - dof:-2] = q_ref
+        return out
+
+    def run(self, q0: Array, params: Array, warm: bool = True) -> Attempt:
+        """Solve once from ``q0``.
+
+        Args:
+            q0: Start ``(dof,)``.
+            params: Parameters from :meth:`params`.
+            warm: Use the instance tuned for a start near the answer (and the last multipliers
+                when ``q0`` is the last answer); else the one tuned for a distant start.
+        """
+        model = self.model
+        kw: dict[str, Any] = {"x0": q0, "p": params, "lbx": model.lower, "ubx": model.upper}
+        if self.n_constraints:
+            kw["lbg"], kw["ubg"] = self.lbg, self.ubg
+        if warm and self._warm is not None and np.array_equal(self._warm[0], q0):
+            kw["lam_x0"], kw["lam_g0"] = self._warm[1], self._warm[2]
+        solver = self.solvers[warm]
+        sol = solver(**kw)
+        stats = solver.stats()
+        q = np.clip(np.array(sol["x"], dtype=float).reshape(-1), model.lower, model.upper)
+        if not np.all(np.isfinite(q)):
+            q = np.array(q0, dtype=float)
+        self._warm = (q, sol["lam_x"], sol["lam_g"])
+        status = str(stats.get("return_status", ""))
+        infeasible = status in ("Infeasible_Problem_Detected", "Restoration_Failed",
+                                "Search_Direction_Becomes_Too_Small") or (
+            "infeasib" in status.lower())
+        return Attempt(q, int(stats.get("iter_count", 0)), status, infeasible)
+
+
+def _max_iter(options: NLPOptions, warm: bool, n_constraints: int) -> int:
+    """Iteration cap: short for a warm start on goals alone, the full budget otherwise."""
+    if warm and not n_constraints:
+        return min(options.max_iterations, _WARM_ITERATIONS)
+    return options.max_iterations
+
+
+def _method(options: NLPOptions, constraints: Sequence[Constraint]) -> Method:
+    return options.method.resolve(any(c.hard for c in constraints))
+
+
+def _solver_options(method: Method, options: NLPOptions, hess: Any, n_constraints: int,
+                    warm: bool) -> dict[str, Any]:
+    if method is Method.IPOPT:
+        ipopt: dict[str, Any] = {
+            "hess_lag": hess, "print_time": False, "error_on_fail": False,
+            "ipopt.print_level": 0, "ipopt.sb": "yes",
+            "ipopt.max_iter": _max_iter(options, warm, n_constraints),
+            "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-8,
+            "ipopt.nlp_scaling_method": "none",  # the residuals are scaled by construction
+        }
+        if warm:  # an adaptive barrier and a start that trusts x0: few iterations near it
+            ipopt.update({"ipopt.mu_strategy": "adaptive", "ipopt.mu_init": 1e-5,
+                        "ipopt.warm_start_init_point": "yes",
+                        "ipopt.warm_start_bound_push": 1e-9,
+                        "ipopt.warm_start_mult_bound_push": 1e-9})
+        return ipopt
+    out: dict[str, Any] = {
+        "hess_lag": hess, "print_time": False, "error_on_fail": False,
+        "print_header": False, "print_iteration": False, "print_status": False,
+        "max_iter": _max_iter(options, warm, n_constraints),
+        "tol_pr": 1e-10, "tol_du": 1e-10,
+        "qpsol": "qrqp",
+        "qpsol_options": {"print_iter": False, "print_header": False, "print_info": False,
+                          "error_on_fail": False},
+    }
+    if n_constraints:
+        out["convexify_strategy"] = "regularize"
+    return out
+
+
+def get_problem(model: KinematicModel, goals: Sequence[Goal], constraints: Sequence[Constraint],
+                options: NLPOptions) -> Problem:
+    """The built problem for this structure, building it on first use.
+
+    Args:
+        model: The arm.
+        goals: The goals.
+        constraints: The constraints.
+        options: Method, budgets and scales.
+
+    Returns:
+        The cached or newly built problem.
+    """
+    global _BUILDS
+    per_model = _CACHE.setdefault(model, {})
+    key = structure_key(model, goals, constraints, options)
+    problem = per_model.get(key)
+    if problem is None:
+        problem = Problem(model, goals, constraints, options)
+        per_model[key] = problem
+        _BUILDS += 1
+    return problem

@@ -1,0 +1,217 @@
+"""``solver="nlp"``: IK as non-linear programming, with restarts within a time budget.
+
+Attempts, until one meets every goal and hard constraint (checked by forward kinematics) or the
+budget (``options.time_limit``, ``options.restarts``) is used up:
+
+1. from the start ``q0`` (the previous solution when streaming a moving target);
+2. from the answer of a numerical solver (``options.seed_solver``, ``"dls"`` by default) when it
+   is registered: it ignores the constraints but lands in the right basin for the goals (these
+   first two attempts always run, the time budget applies to the rest);
+3. from random configurations inside the limits (seeded by ``options.seed``); with
+   ``Method.AUTO`` and no hard constraints, after eight SQP restarts every other one runs IPOPT.
+
+With hard constraints and ``Method.AUTO`` each attempt first solves the problem with the hard
+constraints as stiff penalties by SQP, then by IPOPT from there.
+
+An attempt that ends close to the goals but short of their tolerance (the regularisation pulls
+a little) is polished once with the regularisation centred on its own answer. The best attempt
+(least hard-constraint violation, then least goal error) is returned when none succeeds, with
+status ``INFEASIBLE`` when the hard constraints could not be met together.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.errors import ArmctlError, InputError
+from armctl.ik.goals import Goal
+from armctl.ik.nlp.constraints import Constraint
+from armctl.ik.nlp.options import Method, NLPOptions
+from armctl.ik.nlp.problem import Problem, get_problem
+from armctl.ik.options import IKOptions
+from armctl.ik.result import IKResult, IKStatus, evaluate, finish
+from armctl.kinematics.model import KinematicModel
+
+__all__ = ["check_constraints", "solve"]
+
+Array = npt.NDArray[np.float64]
+
+#: Attempts in a row that end locally infeasible before the solve gives up as infeasible.
+_INFEASIBLE_STREAK = 4
+#: Attempts found locally infeasible by the solver that make a failed solve ``INFEASIBLE``.
+_INFEASIBLE_VERDICT = 2
+#: Warm re-solves of an answer that ends within 1000 tolerances of the goals.
+_POLISHES = 4
+#: Random restarts by SQP alone before AUTO alternates them with IPOPT.
+_SQP_ONLY_RESTARTS = 8
+#: Weight of the hard constraints in the penalty pre-solve (goal weights are about 1).
+_PENALTY = 1e3
+
+
+def check_constraints(model: KinematicModel, constraints: Sequence[Any]) -> tuple[Constraint, ...]:
+    """The constraints, checked to be NLP constraint objects on frames the arm has.
+
+    Raises:
+        InputError: For anything that is not a :class:`Constraint`.
+        UnknownNameError: For an unknown frame.
+    """
+    out = []
+    for c in constraints:
+        if not isinstance(c, Constraint):
+            raise InputError(f"the nlp solver takes constraint objects from armctl.ik.nlp "
+                             f"(OnPlane, InHalfSpace, ...); got {type(c).__name__}")
+        if not c.on_links:
+            model.frame_index(c.frame)
+        out.append(c)
+    return tuple(out)
+
+
+def _merit(model: KinematicModel, goals: tuple[Goal, ...], hard: Sequence[Constraint],
+           q: Array) -> tuple[float, float, bool]:
+    """(hard violation beyond tolerance, scaled goal error, every goal and hard constraint met)."""
+    errs = evaluate(model, goals, q)
+    goal_err = max(max(e.position / g.tolerance.position, e.rotation / g.tolerance.rotation)
+                   for e, g in zip(errs, goals, strict=True))
+    excess = sum(max(0.0, c.violation(model, q) - c.tolerance) for c in hard)
+    met = all(e.reached for e in errs) and excess == 0.0
+    return excess, goal_err, met
+
+
+def _seeds(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: NLPOptions,
+           overrun: list[float]) -> Iterator[tuple[str, Array]]:
+    """Starts: ``q0``, the seed solver's answer, then random ones.
+
+    ``overrun`` collects the seed solver's time beyond its own budget (its one-time
+    compilation), which is not charged to the solve.
+    """
+    yield "start", q0
+    if options.seed_solver:
+        from armctl.ik.registry import available_solvers, get_solver
+
+        if options.seed_solver in available_solvers() and options.seed_solver != "nlp":
+            budget = IKOptions(time_limit=max(options.time_limit / 20, 1e-3), restarts=0,
+                               seed=options.seed)
+            t0 = time.perf_counter()
+            try:
+                res = get_solver(options.seed_solver)(model, goals, q0, budget, ())
+            except ArmctlError:
+                res = None
+            overrun.append(max(0.0, time.perf_counter() - t0 - 2 * budget.time_limit))
+            if res is not None:
+                yield options.seed_solver, np.array(res.q)
+    rng = np.random.default_rng(options.seed)
+    while True:
+        yield "random", model.sample(rng)
+
+
+def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
+          options: IKOptions, constraints: Sequence[Any]) -> IKResult:
+    """Solve IK as a non-linear program (the registry's ``"nlp"`` entry).
+
+    Args:
+        model: The arm.
+        goals: The goals (one per frame; several end effectors at once).
+        q0: Start inside the limits; also the regularisation centre unless
+            ``options.preferred`` is given.
+        options: :class:`NLPOptions` (plain :class:`IKOptions` get NLP defaults).
+        constraints: :mod:`armctl.ik.nlp.constraints` objects, hard or weighted.
+
+    Returns:
+        The result; ``success`` requires every goal and every hard constraint to hold by FK.
+    """
+    started = time.perf_counter()
+    opts = NLPOptions.from_options(options)
+    cons = check_constraints(model, constraints)
+    hard = [c for c in cons if c.hard]
+    problem = get_problem(model, goals, cons, opts)
+    pref = opts.preferred_array(model.dof)
+    q_ref = np.array(q0, dtype=float) if pref is None else pref
+    params = problem.params(goals, cons, q_ref, opts.regularization, opts.damping)
+    pre: tuple[Problem, Array] | None = None
+    if hard and opts.method is Method.AUTO:
+        # the hard constraints as stiff penalties, solved by the cheap SQP first: its answer is
+        # a near-feasible start from which IPOPT needs few iterations
+        soft = tuple(replace(c, weight=_PENALTY) if c.hard else c for c in cons)
+        pre_problem = get_problem(model, goals, soft, replace(opts, method=Method.SQP))
+        pre = (pre_problem,
+               pre_problem.params(goals, soft, q_ref, opts.regularization, opts.damping))
+    twin: Problem | None = None  # IPOPT for the same problem, for AUTO's later restarts
+    randoms = 0
+    # the budget starts after the (cached) build: a first solve's CasADi set-up is not charged
+    deadline = time.perf_counter() + opts.time_limit
+    overrun: list[float] = []
+    best: tuple[float, float] | None = None
+    best_q = np.array(q0, dtype=float)
+    iterations, attempts, streak, flagged = 0, 0, 0, 0
+    status = IKStatus.MAX_ITERATIONS
+    for origin, seed in _seeds(model, goals, q0, opts, overrun):
+        if attempts > opts.restarts:
+            break
+        if origin == "random" and time.perf_counter() >= deadline + sum(overrun):
+            status = IKStatus.TIME_LIMIT
+            break
+        attempts += 1
+        if pre is not None:
+            first = pre[0].run(seed, pre[1], warm=origin != "random")
+            seed, iterations = first.q, iterations + first.iterations
+        current = problem
+        if origin == "random":
+            randoms += 1
+            if (opts.method is Method.AUTO and not hard and randoms > _SQP_ONLY_RESTARTS
+                    and randoms % 2 == 0):
+                # a goal whose basin SQP rarely finds from random starts: alternate with IPOPT
+                twin = twin or get_problem(model, goals, cons, replace(opts, method=Method.IPOPT))
+                current = twin
+        # the warm-start tuning suits a start near the answer: the penalty pre-solve's, or
+        # without hard constraints the given start and the seed solver's
+        warm = pre is not None or (origin != "random" and not hard)
+        q, its, infeasible, merit = _attempt(current, model, goals, hard, seed, params, warm)
+        iterations += its
+        streak = streak + 1 if infeasible else 0
+        flagged += infeasible
+        if best is None or merit[:2] < best:
+            best, best_q = merit[:2], q
+        if merit[2]:
+            status = IKStatus.CONVERGED
+            break
+        if hard and streak >= _INFEASIBLE_STREAK:
+            break
+    if (status is not IKStatus.CONVERGED and best is not None and best[0] > 0
+            and flagged >= _INFEASIBLE_VERDICT):
+        # every attempt broke a hard constraint, and the solver found them locally
+        # infeasible from several starts
+        status = IKStatus.INFEASIBLE
+    return finish(model, goals, best_q, solver="nlp", status=status, iterations=iterations,
+                  restarts=max(attempts - 1, 0), started=started, constraints=cons,
+                  message=f"{problem.method.value}, {attempts} attempt(s)")
+
+
+def _attempt(problem: Problem, model: KinematicModel, goals: tuple[Goal, ...],
+             hard: Sequence[Constraint], seed: Array, params: Array,
+             warm: bool) -> tuple[Array, int, bool, tuple[float, float, bool]]:
+    """One solve plus up to ``_POLISHES`` polishes; returns (q, iterations, infeasible, merit).
+
+    A polish re-solves from the answer with the regularisation centred on it: it removes the
+    regularisation's pull, and continues a slow convergence near a singular configuration.
+    """
+    att = problem.run(seed, params, warm)
+    its = att.iterations
+    q = att.q
+    merit = _merit(model, goals, hard, q)
+    for _ in range(_POLISHES):
+        if merit[2] or merit[0] > 0.0 or merit[1] > 1e3:
+            break
+        # close but short: the regularisation pulled; centre it on the answer and re-solve
+        att2 = problem.run(q, problem.recentred(params, q), True)
+        its += att2.iterations
+        merit2 = _merit(model, goals, hard, att2.q)
+        if not merit2[:2] < merit[:2]:
+            break
+        q, merit = att2.q, merit2
+    return q, its, att.locally_infeasible, merit
