@@ -8,9 +8,10 @@ import numpy as np
 from armctl.ik.analytic._families import spherical_wrist, three_parallel
 from armctl.ik.analytic._polish import POSE, assemble
 from armctl.ik.analytic._search import CAPACITY, one_pair
+from armctl.ik.analytic.general6r import general6r
 
 #: Family codes of :func:`pose6`.
-SPHERICAL, PARALLEL, PAIR = 0, 1, 2
+SPHERICAL, PARALLEL, PAIR, GENERAL = 0, 1, 2, 3
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -22,7 +23,7 @@ def pose6(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray
     """Every solution of a pose goal for a 6R chain of a family.
 
     Args:
-        code: :data:`SPHERICAL`, :data:`PARALLEL` or :data:`PAIR`.
+        code: :data:`SPHERICAL`, :data:`PARALLEL`, :data:`PAIR` or :data:`GENERAL`.
         inverted: Whether ``h, o, m`` describe the inverted chain (the goal is inverted too).
         h: ``(6, 3)`` axes of the solver chain.
         o: ``(6, 3)`` points on them [m].
@@ -60,8 +61,10 @@ def pose6(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray
         n, singular = spherical_wrist(h, o, m, target, ref, raw)
     elif code == PARALLEL:
         n, singular = three_parallel(h, o, m, target, ref, raw)
-    else:
+    elif code == PAIR:
         n, singular = one_pair(h, o, m, target, ref, raw)
+    else:
+        n, singular = general6r(h, o, m, target, ref, raw)
     z = np.zeros(3)
     q, inside, errs, _ = assemble(raw, n, joints, sign, cols, is_col, q_ref, POSE, goal,
                                   goal[:3, 3].copy(), z, z, jd, fd, paths, f, tol, lower, upper)

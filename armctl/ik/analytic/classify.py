@@ -47,6 +47,7 @@ class Family(Enum):
     PARALLEL_DIRECTION = "5R with parallel axes 2, 3, 4: position + tool direction"
     YAW_PARALLEL_DIRECTION = "4R yaw + parallel axes 2, 3, 4: position + tool direction"
     POSITION_3R = "three joints place the tool point"
+    GENERAL_6R = "general 6R: Raghavan-Roth elimination, 24 x 24 eigenvalue problem"
 
 
 #: Maximum solution count per family (for buffers and documentation).
@@ -54,7 +55,7 @@ MAX_SOLUTIONS = {
     Family.SPHERICAL_WRIST: 8, Family.SPHERICAL_SHOULDER: 8, Family.THREE_PARALLEL: 8,
     Family.THREE_PARALLEL_OUTER: 8, Family.PAIR_SEARCH: 16, Family.PAIR_SEARCH_INVERTED: 16,
     Family.PARALLEL_DIRECTION: 8,
-    Family.YAW_PARALLEL_DIRECTION: 4, Family.POSITION_3R: 4,
+    Family.YAW_PARALLEL_DIRECTION: 4, Family.POSITION_3R: 4, Family.GENERAL_6R: 16,
 }
 
 
@@ -188,6 +189,11 @@ def _pose6(chain: Chain, tol: Tolerances) -> tuple[Family, Chain, bool] | None:
             continue
         c = _meet(ch, (4, 5), tol)
         if c is not None and _places_point(c, tol):
+            # The eigenvalue method is complete; the 1-D search is the fallback for chains on
+            # which the elimination is not well posed (several special pairs, e.g. the torso).
+            for g, g_inv in ((chain, False), (rev, True)):
+                if _general_ok(g):
+                    return Family.GENERAL_6R, g, g_inv
             return fam, c, inv
     return None
 
@@ -196,6 +202,13 @@ def _places_point(chain: Chain, tol: Tolerances) -> bool:
     """Whether joints 1-3 of ``chain`` can place a point (not concurrent, not all parallel)."""
     planar = all(_parallel(chain.h[0], chain.h[k], tol) for k in (1, 2))
     return not planar and _common_point(chain.h[:3], chain.o[:3], tol) is None
+
+
+def _general_ok(chain: Chain) -> bool:
+    """Whether the general 6R elimination recovers known configurations of ``chain``."""
+    from armctl.ik.analytic.general6r import well_posed
+
+    return well_posed(chain.h, chain.o, chain.m)
 
 
 def _sub(chain: Chain, keep: slice) -> Chain:
@@ -273,10 +286,13 @@ def _classify(model: KinematicModel, frame: str | None, kind: GoalKind,
         if found is not None:
             fam, c, inv = found
             return Decomposition(fam, kind, c, inv, (), chain.joints, chain)
+        for c, inv in ((chain, False), (chain.reversed(), True)):
+            if _general_ok(c):
+                return Decomposition(Family.GENERAL_6R, kind, c, inv, (), chain.joints, chain)
         raise NoDecompositionError(
-            f"arm {model.name!r} is a general 6R chain (no three axes meeting in a point, no "
-            "three parallel axes, axes 5 and 6 (or 1 and 2) not meeting); the analytic solvers "
-            "need one of these", hint)
+            f"arm {model.name!r} is a 6R chain in no family (no three axes meeting in a point, "
+            "no three parallel axes, axes 5 and 6 (or 1 and 2) not meeting) on which the "
+            "general 6R elimination is well posed", hint)
     if n == 7:
         for keep, held in ((slice(0, 6), 6), (slice(1, 7), 0)):
             found = _pose6(_sub(chain, keep), tol)

@@ -9,7 +9,7 @@ import numpy.typing as npt
 
 from armctl.errors import InputError
 from armctl.ik.analytic import _families as F
-from armctl.ik.analytic._pipeline import PAIR, PARALLEL, SPHERICAL, pose6
+from armctl.ik.analytic._pipeline import GENERAL, PAIR, PARALLEL, SPHERICAL, pose6
 from armctl.ik.analytic._polish import DIRECTION, POSE, POSITION, assemble, inspect_pose
 from armctl.ik.analytic._search import CAPACITY, one_pair
 from armctl.ik.analytic.chain import Chain, screw
@@ -28,7 +28,8 @@ ACCEPT = 1e-9
 _KIND = {GoalKind.POSE: POSE, GoalKind.DIRECTION: DIRECTION, GoalKind.POSITION: POSITION}
 _CODE = {Family.SPHERICAL_WRIST: SPHERICAL, Family.SPHERICAL_SHOULDER: SPHERICAL,
          Family.THREE_PARALLEL: PARALLEL, Family.THREE_PARALLEL_OUTER: PARALLEL,
-         Family.PAIR_SEARCH: PAIR, Family.PAIR_SEARCH_INVERTED: PAIR}
+         Family.PAIR_SEARCH: PAIR, Family.PAIR_SEARCH_INVERTED: PAIR,
+         Family.GENERAL_6R: GENERAL}
 
 
 @dataclass(frozen=True)

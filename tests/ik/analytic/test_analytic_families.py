@@ -14,7 +14,7 @@ from analytic_arms import KR6, PUMA560, UR5E, dh_arm, random_arm
 
 from armctl.arm import Arm, load_arm
 from armctl.errors import InputError
-from armctl.ik.analytic import Family, GoalKind, NoDecompositionError, classify, ik_all
+from armctl.ik.analytic import Family, GoalKind, classify, ik_all
 
 TOL = 1e-9
 
@@ -83,12 +83,12 @@ def test_random_arms_of_each_family(family: str) -> None:
         _check(arm, 40, k)
 
 
-def test_a_general_6r_arm_has_no_decomposition() -> None:
+def test_a_general_6r_arm_is_solved_by_elimination() -> None:
     arm = random_arm(np.random.default_rng(3), "general")
-    with pytest.raises(NoDecompositionError, match="general 6R"):
-        classify(arm)
-    with pytest.raises(NoDecompositionError):
-        ik_all(arm, arm.fk(np.zeros(6)))
+    assert classify(arm).family is Family.GENERAL_6R
+    q = arm.sample(np.random.default_rng(4))
+    sols = ik_all(arm, arm.fk(q), q_ref=q)
+    assert len(sols) and np.abs(sols.q[0] - q).max() < 1e-6
 
 
 def test_solution_sets_contain_eaiks() -> None:
