@@ -313,9 +313,9 @@ def main() -> int:
         + ".", "",
         "General 6R rows: every solution from the 24 x 24 eigenvalue problem of the "
         "Raghavan-Roth / Manocha-Canny elimination (its setup includes a self-check on four "
-        "configurations); the Manocha-Canny arm has axes 5 and 6 meeting, so `ik_all` would "
-        "use the 1-D search family on it; the row times the general kernel on it directly "
-        "(peers have no general 6R closed form)."]
+        "configurations); the Manocha-Canny arm has axes 5 and 6 meeting, and `ik_all` uses the "
+        "general method on such arms whenever its elimination is well posed (the 1-D search "
+        "is the fallback, e.g. for the torso's arms); peers have no general 6R closed form."]
     md = "\n".join(lines)
     print(md)
     if not args.no_write:
