@@ -219,8 +219,9 @@ def cmd_ik(args: argparse.Namespace) -> int:
                  constraints=req.constraints)
     data, text = _report(arm, req, res, args.deg)
     if not res.success:
-        raise IKFailedError(res, f"no solution: {res.message}\nclosest configuration found:\n"
-                            + text, data)
+        stats = text.split("\n", 1)[0].rsplit("; ", 1)[-1]  # iterations, restarts, time
+        raise IKFailedError(res, f"no solution: {res.message}\nclosest configuration found "
+                            f"({stats}):" + text.split("\n", 1)[1], data)
     emit(args, data, text)
     return 0
 

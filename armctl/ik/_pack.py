@@ -73,51 +73,64 @@ class GoalArrays:
 def goal_row(goal: Goal) -> Array:
     """The 18 numbers of one goal's target (layout in :mod:`armctl.ik._engine`)."""
     row = np.zeros(18)
-    row[15:18] = (0.0, 0.0, 1.0)
+    row[17] = 1.0  # default tool axis z
     if isinstance(goal, PositionGoal):
         row[0:3] = goal.position
     elif isinstance(goal, OrientationGoal):
-        row[3:12] = goal.rotation.reshape(9)
+        row[3:12] = goal.rotation.ravel()
     elif isinstance(goal, DirectionGoal):
         row[0:3] = goal.position
         row[12:15] = goal.direction
         row[15:18] = goal.axis
     elif isinstance(goal, PoseGoal):
-        row[0:3] = goal.position
-        row[3:12] = goal.rotation.reshape(9)
+        row[0:3] = goal.pose[:3, 3]
+        row[3:12] = goal.pose[:3, :3].ravel()
     else:
         raise InputError(f"the numerical solvers do not handle goals of type {type(goal).__name__}")
     return row
 
 
+_TYPES: dict[type, int] = {PositionGoal: E.POSITION, OrientationGoal: E.ORIENTATION,
+                           DirectionGoal: E.DIRECTION, PoseGoal: E.POSE}
+
+
 def goal_type(goal: Goal) -> int:
     """The engine's code of a goal's type."""
-    for cls, code in ((PositionGoal, E.POSITION), (OrientationGoal, E.ORIENTATION),
-                      (DirectionGoal, E.DIRECTION), (PoseGoal, E.POSE)):
+    code = _TYPES.get(type(goal))
+    if code is not None:
+        return code
+    for cls, c in _TYPES.items():  # subclasses
         if isinstance(goal, cls):
-            return code
+            return c
     raise InputError(f"the numerical solvers do not handle goals of type {type(goal).__name__}")
+
+
+_MASKS: weakref.WeakKeyDictionary[KinematicModel, dict[int, npt.NDArray[np.int64]]] = (
+    weakref.WeakKeyDictionary())
+
+
+def _mask_row(model: KinematicModel, f: int) -> npt.NDArray[np.int64]:
+    rows = _MASKS.setdefault(model, {})
+    row = rows.get(f)
+    if row is None:
+        row = np.zeros(model.dof, dtype=np.int64)
+        path = model._paths[f]
+        row[path[path >= 0]] = 1
+        rows[f] = row
+    return row
 
 
 def pack_goals(model: KinematicModel, goals: Sequence[Goal]) -> GoalArrays:
     """Pack goals; raises InputError for an unknown frame or goal type."""
-    ng = len(goals)
-    gf = np.empty(ng, dtype=np.int64)
-    gt = np.empty(ng, dtype=np.int64)
-    gd = np.empty((ng, 18))
-    gw = np.empty(ng)
-    gtol = np.empty((ng, 2))
-    mask = np.zeros((ng, model.dof), dtype=np.int64)
-    for g, goal in enumerate(goals):
-        f = model.frame_index(goal.frame)
-        gf[g] = f
-        gt[g] = goal_type(goal)
-        gd[g] = goal_row(goal)
-        gw[g] = goal.weight
-        gtol[g] = (goal.tolerance.position, goal.tolerance.rotation)
-        path = model._paths[f]
-        mask[g, path[path >= 0]] = 1
-    return GoalArrays(gf, gt, gd, gw, gtol, mask)
+    frames = [model.frame_index(goal.frame) for goal in goals]
+    return GoalArrays(
+        np.array(frames, dtype=np.int64),
+        np.array([goal_type(goal) for goal in goals], dtype=np.int64),
+        np.array([goal_row(goal) for goal in goals]),
+        np.array([goal.weight for goal in goals], dtype=float),
+        np.array([(g.tolerance.position, g.tolerance.rotation) for g in goals], dtype=float),
+        np.array([_mask_row(model, f) for f in frames]),
+    )
 
 
 def seed_state(seed: int | None) -> npt.NDArray[np.uint64]:
