@@ -20,10 +20,6 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
@@ -39,6 +35,7 @@ from armctl.ik import (
 )
 from armctl.ik.numerical import _METHODS, _PARAMS, run_method
 from armctl.ik.registry import get_solver
+from armctl.render.plots import color, new_figure, save_figure, style_axes
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "ik-methods.md"
@@ -46,7 +43,7 @@ IMG = ROOT / "docs" / "img"
 SOLVERS = ("pinv", "dls", "jt", "ccd", "ccd-jt", "auto")
 KINDS = ("position", "orientation", "direction", "pose")
 TOL = Tolerance()  # 1e-5 m, 1e-4 rad
-COLORS = {"pinv": "C0", "dls": "C1", "jt": "C2", "ccd": "C3", "ccd-jt": "C4", "auto": "C5"}
+COLORS = {solver: color(i) for i, solver in enumerate(SOLVERS)}  # the armctl plot palette
 
 
 @dataclass
@@ -265,13 +262,21 @@ def evenness(share: np.ndarray) -> float:
     return float(-(p * np.log(p)).sum() / np.log(n)) if n > 1 else 1.0
 
 
+def _grid(n: int) -> tuple[object, list]:
+    """A figure with one axes per arm (three per row), in the armctl plot style."""
+    cols = min(3, n)
+    rows = (n + cols - 1) // cols
+    fig, axes = new_figure(rows, cols, size=(5.0 * cols, 3.6 * rows), dpi=90)
+    for ax in axes[n:]:
+        ax.axis("off")
+    return fig, axes
+
+
 def plots(arms: list[str], summary: dict, traces: dict, args: argparse.Namespace) -> None:
     IMG.mkdir(parents=True, exist_ok=True)
-    cols = min(3, len(arms))
-    rows = (len(arms) + cols - 1) // cols
     # error vs iteration
-    fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 3.6 * rows), squeeze=False)
-    for ax, name in zip(axes.flat, arms, strict=False):
+    fig, axes = _grid(len(arms))
+    for ax, name in zip(axes, arms, strict=False):
         for solver, tr in traces[name].items():
             err = tr[:, :, 0] + tr[:, :, 1] * 0.1  # position [m] + 0.1 m x rotation [rad]
             for row in err:  # a finished run keeps its last error
@@ -279,42 +284,29 @@ def plots(arms: list[str], summary: dict, traces: dict, args: argparse.Namespace
                     if np.isnan(row[k]):
                         row[k] = row[k - 1]
             med = np.nanmedian(err, axis=0)
-            ax.semilogy(np.arange(len(med)), np.maximum(med, 1e-12), label=solver,
-                        color=COLORS[solver])
-        ax.set_title(f"{name}: pose goals from mid-range")
-        ax.set_xlabel("iteration")
-        ax.set_ylabel("median error [m + 0.1 m/rad]")
-        ax.grid(True, which="both", alpha=0.3)
-    axes.flat[0].legend()
-    for ax in list(axes.flat)[len(arms):]:
-        ax.axis("off")
-    fig.tight_layout()
-    fig.savefig(IMG / "ik-error-vs-iteration.png", dpi=90)
-    plt.close(fig)
+            ax.plot(np.arange(len(med)), np.maximum(med, 1e-12), label=solver,
+                    color=COLORS[solver])
+        style_axes(ax, f"{name}: pose goals from mid-range", "iteration",
+                   "median error [m + 0.1 m/rad]", log_y=True, legend=ax is axes[0])
+    save_figure(fig, IMG / "ik-error-vs-iteration.png")
     # success vs iteration budget
-    fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 3.6 * rows), squeeze=False)
+    fig, axes = _grid(len(arms))
     budgets = np.unique(np.logspace(0, np.log10(args.budget), 60).astype(int))
-    for ax, name in zip(axes.flat, arms, strict=False):
+    for ax, name in zip(axes, arms, strict=False):
         for solver in SOLVERS[:-1]:
             runs = summary[(name, "pose", solver, "mid")]
             ok = np.array(runs.ok)
             it = np.array(runs.iters)
-            ax.semilogx(budgets, [100 * np.mean(ok & (it <= b)) for b in budgets], label=solver,
-                        color=COLORS[solver])
-        ax.set_title(f"{name}: pose goals, one attempt")
-        ax.set_xlabel("iteration budget")
-        ax.set_ylabel("success [%]")
+            ax.plot(budgets, [100 * np.mean(ok & (it <= b)) for b in budgets], label=solver,
+                    color=COLORS[solver])
+        ax.set_xscale("log")
         ax.set_ylim(0, 101)
-        ax.grid(True, which="both", alpha=0.3)
-    axes.flat[0].legend()
-    for ax in list(axes.flat)[len(arms):]:
-        ax.axis("off")
-    fig.tight_layout()
-    fig.savefig(IMG / "ik-success-vs-budget.png", dpi=90)
-    plt.close(fig)
+        style_axes(ax, f"{name}: pose goals, one attempt", "iteration budget", "success [%]",
+                   legend=ax is axes[0])
+    save_figure(fig, IMG / "ik-success-vs-budget.png")
     # joint-motion distribution
-    fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 3.6 * rows), squeeze=False)
-    for ax, name in zip(axes.flat, arms, strict=False):
+    fig, axes = _grid(len(arms))
+    for ax, name in zip(axes, arms, strict=False):
         arm = load_arm(name)
         chain = list(arm.chain())
         width = 0.8 / 5
@@ -325,15 +317,9 @@ def plots(arms: list[str], summary: dict, traces: dict, args: argparse.Namespace
                        label=solver, color=COLORS[solver])
         ax.set_xticks(np.arange(len(chain)) + 0.4)
         ax.set_xticklabels([str(j + 1) for j in range(len(chain))])
-        ax.set_title(f"{name}: share of joint motion, position goals")
-        ax.set_xlabel("joint (base to tool)")
-        ax.set_ylabel("mean |dq_j| / sum |dq|")
-    axes.flat[0].legend()
-    for ax in list(axes.flat)[len(arms):]:
-        ax.axis("off")
-    fig.tight_layout()
-    fig.savefig(IMG / "ik-joint-motion.png", dpi=90)
-    plt.close(fig)
+        style_axes(ax, f"{name}: share of joint motion, position goals",
+                   "joint (base to tool)", "mean |dq_j| / sum |dq|", legend=ax is axes[0])
+    save_figure(fig, IMG / "ik-joint-motion.png")
 
 
 def _agg(summary: dict, solver: str, pred) -> Runs:

@@ -19,7 +19,7 @@ import yaml
 
 from armctl.errors import ConfigError, KeyPath
 
-__all__ = ["Document", "Section", "load_yaml", "parse_yaml"]
+__all__ = ["Document", "Section", "load_yaml", "parse_yaml", "read_text"]
 
 T = TypeVar("T")
 Keys = tuple[str | int, ...]
@@ -118,13 +118,22 @@ def load_yaml(path: str | Path) -> Document:
         ConfigError: If the file cannot be read or is not valid YAML.
     """
     p = Path(path)
+    return parse_yaml(read_text(p), p)
+
+
+def read_text(path: str | Path) -> str:
+    """The UTF-8 text of a config file.
+
+    Raises:
+        ConfigError: If the file is missing or cannot be read as text.
+    """
+    p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        return p.read_text(encoding="utf-8")
     except FileNotFoundError as exc:
         raise ConfigError("file not found", KeyPath(p), "check the path") from exc
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"cannot read the file: {exc}", KeyPath(p)) from exc
-    return parse_yaml(text, p)
 
 
 def _type_name(value: Any) -> str:

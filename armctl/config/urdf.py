@@ -26,6 +26,7 @@ from armctl.config.schema import (
     Origin,
     Sphere,
 )
+from armctl.config.source import read_text
 from armctl.config.tree import order_tree
 from armctl.errors import ConfigError, KeyPath, UnknownNameError
 
@@ -60,13 +61,7 @@ def load_urdf(path: str | Path, tip: str | None = None) -> UrdfImport:
         ConfigError: If the file is missing, is not XML, or is not a valid tree.
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError as exc:
-        raise ConfigError("file not found", KeyPath(p), "check the path") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read the file: {exc}", KeyPath(p)) from exc
-    return parse_urdf(text, p, tip)
+    return parse_urdf(read_text(p), p, tip)
 
 
 def _floats(text: str | None, n: int, default: tuple[float, ...], where: KeyPath,

@@ -32,6 +32,8 @@ __all__ = [
     "PositionGoal",
     "Tolerance",
     "as_goals",
+    "as_unit3",
+    "as_vec3",
 ]
 
 Array = npt.NDArray[np.float64]
@@ -55,7 +57,8 @@ class Tolerance:
                              f"rotation={self.rotation} rad")
 
 
-def _vec3(value: npt.ArrayLike, what: str) -> Array:
+def as_vec3(value: npt.ArrayLike, what: str) -> Array:
+    """A read-only ``(3,)`` float vector; ``what`` names it in the error."""
     arr = np.array(value, dtype=float).reshape(-1)
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise InputError(f"{what} must be 3 finite numbers, got {np.asarray(value).tolist()}")
@@ -63,8 +66,9 @@ def _vec3(value: npt.ArrayLike, what: str) -> Array:
     return arr
 
 
-def _unit3(value: npt.ArrayLike, what: str) -> Array:
-    arr = np.array(_vec3(value, what))
+def as_unit3(value: npt.ArrayLike, what: str) -> Array:
+    """A read-only unit ``(3,)`` vector (normalised); ``what`` names it in the error."""
+    arr = np.array(as_vec3(value, what))
     n = float(np.linalg.norm(arr))
     if n < 1e-9:
         raise InputError(f"{what} must not be the zero vector")
@@ -147,7 +151,7 @@ class PositionGoal(Goal):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "position", _vec3(self.position, "goal position"))
+        object.__setattr__(self, "position", as_vec3(self.position, "goal position"))
         object.__setattr__(self, "dof", 3)
         object.__setattr__(self, "has_position", True)
 
@@ -180,7 +184,7 @@ class OrientationGoal(Goal):
             weight: Relative weight.
             tolerance: When the goal counts as reached.
         """
-        x, z = _unit3(x_axis, "x axis"), _unit3(z_axis, "z axis")
+        x, z = as_unit3(x_axis, "x axis"), as_unit3(z_axis, "z axis")
         if abs(float(x @ z)) > 1e-6:
             raise InputError("the two orientation vectors must be orthogonal")
         rot = np.column_stack([x, np.cross(z, x), z])
@@ -206,9 +210,9 @@ class DirectionGoal(Goal):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "position", _vec3(self.position, "goal position"))
-        object.__setattr__(self, "direction", _unit3(self.direction, "goal direction"))
-        object.__setattr__(self, "axis", _unit3(self.axis, "tool axis"))
+        object.__setattr__(self, "position", as_vec3(self.position, "goal position"))
+        object.__setattr__(self, "direction", as_unit3(self.direction, "goal direction"))
+        object.__setattr__(self, "axis", as_unit3(self.axis, "tool axis"))
         object.__setattr__(self, "dof", 5)
         object.__setattr__(self, "has_position", True)
         object.__setattr__(self, "has_rotation", True)

@@ -94,6 +94,44 @@ def _identity34(t: np.ndarray) -> None:
             t[i, k] = 1.0 if i == k else 0.0
 
 
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _record_axis(t: np.ndarray, row: np.ndarray, w: np.ndarray, o: np.ndarray, i: int) -> None:
+    """Store the world axis and origin of the joint just stepped (row ``i`` of ``w``, ``o``).
+
+    The axis is fixed by the joint's own motion, so the frame after the step gives it.
+    """
+    x, y, z = row[12], row[13], row[14]
+    w[i, 0] = t[0, 0] * x + t[0, 1] * y + t[0, 2] * z
+    w[i, 1] = t[1, 0] * x + t[1, 1] * y + t[1, 2] * z
+    w[i, 2] = t[2, 0] * x + t[2, 1] * y + t[2, 2] * z
+    o[i, 0] = t[0, 3]
+    o[i, 1] = t[1, 3]
+    o[i, 2] = t[2, 3]
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _fill_columns(pose: np.ndarray, w: np.ndarray, o: np.ndarray, cols: np.ndarray,
+                  prismatic: np.ndarray, depth: int, jac: np.ndarray) -> None:
+    """Jacobian columns ``[w x (p - o); w]`` (revolute) or ``[w; 0]`` (prismatic), others 0."""
+    jac[:, :] = 0.0
+    ex, ey, ez = pose[0, 3], pose[1, 3], pose[2, 3]
+    for i in range(depth):
+        j = cols[i]
+        wx, wy, wz = w[i, 0], w[i, 1], w[i, 2]
+        if prismatic[i] > 0.5:
+            jac[0, j] = wx
+            jac[1, j] = wy
+            jac[2, j] = wz
+        else:
+            rx, ry, rz = ex - o[i, 0], ey - o[i, 1], ez - o[i, 2]
+            jac[0, j] = wy * rz - wz * ry
+            jac[1, j] = wz * rx - wx * rz
+            jac[2, j] = wx * ry - wy * rx
+            jac[3, j] = wx
+            jac[4, j] = wy
+            jac[5, j] = wz
+
+
 @nb.njit(cache=True, nogil=True, error_model="numpy")
 def fk_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
             out: np.ndarray) -> None:
@@ -125,44 +163,20 @@ def fk_jacobian_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.nd
     t = np.empty((3, 4))
     _identity34(t)
     path = paths[f]
-    depth = 0
     w = np.empty((n, 3))
     o = np.empty((n, 3))
+    prismatic = np.empty(n)
+    depth = 0
     for k in range(path.shape[0]):
         j = path[k]
         if j < 0:
             break
         _step(t, jd[j], q[j])
-        row = jd[j]
-        x, y, z = row[12], row[13], row[14]
-        # the axis is fixed by the joint's own motion, so the frame after it gives w
-        w[k, 0] = t[0, 0] * x + t[0, 1] * y + t[0, 2] * z
-        w[k, 1] = t[1, 0] * x + t[1, 1] * y + t[1, 2] * z
-        w[k, 2] = t[2, 0] * x + t[2, 1] * y + t[2, 2] * z
-        o[k, 0] = t[0, 3]
-        o[k, 1] = t[1, 3]
-        o[k, 2] = t[2, 3]
+        _record_axis(t, jd[j], w, o, k)
+        prismatic[k] = jd[j, 15]
         depth += 1
     _apply_offset(t, fd[f], pose)
-    for i in range(6):
-        for c in range(n):
-            jac[i, c] = 0.0
-    ex, ey, ez = pose[0, 3], pose[1, 3], pose[2, 3]
-    for k in range(depth):
-        j = path[k]
-        wx, wy, wz = w[k, 0], w[k, 1], w[k, 2]
-        if jd[j, 15] > 0.5:
-            jac[0, j] = wx
-            jac[1, j] = wy
-            jac[2, j] = wz
-        else:
-            rx, ry, rz = ex - o[k, 0], ey - o[k, 1], ez - o[k, 2]
-            jac[0, j] = wy * rz - wz * ry
-            jac[1, j] = wz * rx - wx * rz
-            jac[2, j] = wx * ry - wy * rx
-            jac[3, j] = wx
-            jac[4, j] = wy
-            jac[5, j] = wz
+    _fill_columns(pose, w, o, path, prismatic, depth, jac)
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -245,33 +259,10 @@ def chain_fk_jacobian_into(q: np.ndarray, rows: np.ndarray, idx: np.ndarray, pos
     w = np.empty((k, 3))
     o = np.empty((k, 3))
     for i in range(k):
-        row = rows[i]
-        _step(t, row, q[idx[i]])
-        x, y, z = row[12], row[13], row[14]
-        w[i, 0] = t[0, 0] * x + t[0, 1] * y + t[0, 2] * z
-        w[i, 1] = t[1, 0] * x + t[1, 1] * y + t[1, 2] * z
-        w[i, 2] = t[2, 0] * x + t[2, 1] * y + t[2, 2] * z
-        o[i, 0] = t[0, 3]
-        o[i, 1] = t[1, 3]
-        o[i, 2] = t[2, 3]
+        _step(t, rows[i], q[idx[i]])
+        _record_axis(t, rows[i], w, o, i)
     _apply_offset(t, rows[k], pose)
-    jac[:, :] = 0.0
-    ex, ey, ez = pose[0, 3], pose[1, 3], pose[2, 3]
-    for i in range(k):
-        j = idx[i]
-        wx, wy, wz = w[i, 0], w[i, 1], w[i, 2]
-        if rows[i, 15] > 0.5:
-            jac[0, j] = wx
-            jac[1, j] = wy
-            jac[2, j] = wz
-        else:
-            rx, ry, rz = ex - o[i, 0], ey - o[i, 1], ez - o[i, 2]
-            jac[0, j] = wy * rz - wz * ry
-            jac[1, j] = wz * rx - wx * rz
-            jac[2, j] = wx * ry - wy * rx
-            jac[3, j] = wx
-            jac[4, j] = wy
-            jac[5, j] = wz
+    _fill_columns(pose, w, o, idx, rows[:, 15], k, jac)
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")

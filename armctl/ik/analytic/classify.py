@@ -229,8 +229,9 @@ def classify(model: KinematicModel, frame: str | None = None, kind: GoalKind = G
         The decomposition.
 
     Raises:
-        NoDecompositionError: If no family fits (a general 6R arm, a prismatic joint, a goal type
-            the chain cannot meet in closed form).
+        NoDecompositionError: If no family fits (a 6R chain on which the general elimination
+            is not well posed, a prismatic joint, a goal type the chain cannot meet in closed
+            form).
     """
     dec = _classify(model, frame, kind, tol)
     return replace(dec, dof=model.dof, label=dec.describe(model),
@@ -239,21 +240,7 @@ def classify(model: KinematicModel, frame: str | None = None, kind: GoalKind = G
 
 def _classify(model: KinematicModel, frame: str | None, kind: GoalKind,
               tol: Tolerances) -> Decomposition:
-    """Find the closed form for goals of type ``kind`` on ``frame``.
-
-    Args:
-        model: The arm.
-        frame: The goal frame; the tool when ``None``.
-        kind: The goal type.
-        tol: Geometry tolerances.
-
-    Returns:
-        The decomposition.
-
-    Raises:
-        NoDecompositionError: If no family fits (a general 6R arm, a prismatic joint, a goal type
-            the chain cannot meet in closed form).
-    """
+    """:func:`classify` without the labels (see there)."""
     chain = chain_of(model, frame)
     n = chain.n
     hint = "use solver 'dls' or 'nlp' for this arm"

@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.errors import InputError
+from armctl.ik.goals import as_unit3, as_vec3
 from armctl.kinematics.model import KinematicModel
 
 __all__ = [
@@ -39,24 +40,6 @@ Array = npt.NDArray[np.float64]
 #: A capsule in the base frame: its ends ``a``, ``b`` as CasADi expressions, its radius and its
 #: (constant) length [m].
 Segment = tuple[Any, Any, float, float]
-
-
-def _vec3(value: npt.ArrayLike, what: str) -> Array:
-    arr = np.array(value, dtype=float).reshape(-1)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise InputError(f"{what} must be 3 finite numbers, got {np.asarray(value).tolist()}")
-    arr.setflags(write=False)
-    return arr
-
-
-def _unit3(value: npt.ArrayLike, what: str) -> Array:
-    arr = np.array(_vec3(value, what))
-    n = float(np.linalg.norm(arr))
-    if n < 1e-9:
-        raise InputError(f"{what} must not be the zero vector")
-    arr /= n
-    arr.setflags(write=False)
-    return arr
 
 
 def _positive(value: float, what: str) -> float:
@@ -150,8 +133,8 @@ class OnPlane(Constraint):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "point", _vec3(self.point, "plane point"))
-        object.__setattr__(self, "normal", _unit3(self.normal, "plane normal"))
+        object.__setattr__(self, "point", as_vec3(self.point, "plane point"))
+        object.__setattr__(self, "normal", as_unit3(self.normal, "plane normal"))
 
     def params(self) -> Array:  # noqa: D102
         return np.concatenate([self.point, self.normal])
@@ -178,8 +161,8 @@ class InHalfSpace(Constraint):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "point", _vec3(self.point, "half-space point"))
-        object.__setattr__(self, "normal", _unit3(self.normal, "half-space normal"))
+        object.__setattr__(self, "point", as_vec3(self.point, "half-space point"))
+        object.__setattr__(self, "normal", as_unit3(self.normal, "half-space normal"))
 
     def params(self) -> Array:  # noqa: D102
         return np.concatenate([self.point, self.normal])
@@ -202,8 +185,8 @@ class OnLine(Constraint):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "point", _vec3(self.point, "line point"))
-        object.__setattr__(self, "direction", _unit3(self.direction, "line direction"))
+        object.__setattr__(self, "point", as_vec3(self.point, "line point"))
+        object.__setattr__(self, "direction", as_unit3(self.direction, "line direction"))
 
     def _basis(self) -> tuple[Array, Array]:
         d = self.direction
@@ -235,8 +218,8 @@ class InBox(Constraint):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "lower", _vec3(self.lower, "box lower corner"))
-        object.__setattr__(self, "upper", _vec3(self.upper, "box upper corner"))
+        object.__setattr__(self, "lower", as_vec3(self.lower, "box lower corner"))
+        object.__setattr__(self, "upper", as_vec3(self.upper, "box upper corner"))
         if np.any(self.lower > self.upper):
             raise InputError(f"box lower corner {self.lower.tolist()} exceeds the upper corner "
                              f"{self.upper.tolist()}; swap the offending values")
@@ -262,7 +245,7 @@ class InSphere(Constraint):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "center", _vec3(self.center, "sphere centre"))
+        object.__setattr__(self, "center", as_vec3(self.center, "sphere centre"))
         object.__setattr__(self, "radius", _positive(self.radius, "sphere radius [m]"))
 
     def params(self) -> Array:  # noqa: D102
@@ -295,8 +278,8 @@ class AxisInCone(Constraint):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "direction", _unit3(self.direction, "cone direction"))
-        object.__setattr__(self, "axis", _unit3(self.axis, "tool axis"))
+        object.__setattr__(self, "direction", as_unit3(self.direction, "cone direction"))
+        object.__setattr__(self, "axis", as_unit3(self.axis, "tool axis"))
         if not 0 < self.half_angle <= math.pi:
             raise InputError(f"a cone's half angle must be in (0, pi] rad, got {self.half_angle}")
 

@@ -14,7 +14,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from armctl.errors import InputError
-from armctl.ik.nlp.constraints import Array, Constraint, Segment, _positive, _vec3
+from armctl.ik.goals import as_vec3
+from armctl.ik.nlp.constraints import Array, Constraint, Segment, _positive
 from armctl.kinematics.capsules import (
     arm_capsules,
     segment_box_distance,
@@ -68,7 +69,7 @@ class KeepOutSphere(_KeepOut):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "center", _vec3(self.center, "keep-out centre"))
+        object.__setattr__(self, "center", as_vec3(self.center, "keep-out centre"))
         object.__setattr__(self, "radius", _positive(self.radius, "keep-out radius [m]"))
 
     def params(self) -> Array:  # noqa: D102
@@ -108,8 +109,8 @@ class KeepOutBox(_KeepOut):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "lower", _vec3(self.lower, "keep-out box lower corner"))
-        object.__setattr__(self, "upper", _vec3(self.upper, "keep-out box upper corner"))
+        object.__setattr__(self, "lower", as_vec3(self.lower, "keep-out box lower corner"))
+        object.__setattr__(self, "upper", as_vec3(self.upper, "keep-out box upper corner"))
         if np.any(self.lower >= self.upper):
             raise InputError(f"keep-out box lower corner {self.lower.tolist()} must be below the "
                              f"upper corner {self.upper.tolist()} on every axis")
