@@ -130,12 +130,11 @@ class UnknownNameError(InputError, KeyError):
         text = f"unknown {kind} {name!r}"
         if context:
             text += f" in {context}"
-        if close:
-            text += f"; did you mean {close[0]!r}?"
+        text += f"; did you mean {close[0]!r}?" if close else "."
         shown = ", ".join(repr(v) for v in self.valid[:40])
         if len(self.valid) > 40:
             shown += ", ..."
-        text += f" Valid {kind} names: {shown}" if self.valid else f" (there are no {kind}s)"
+        text += f" Valid {kind} names: {shown}." if self.valid else f" (there are no {kind}s)"
         self.message = text
         super().__init__(text)
 

@@ -46,6 +46,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Commands that run compiled (numba) kernels, which are built on their first use.
+_COMPILING = frozenset({"fk", "ik", "move-to-pose", "move-joints", "home", "park", "teach",
+                        "play", "render", "workspace", "view", "info", "calibrate"})
+
+
+def _first_run_notice(command: str | None) -> None:
+    """Say so when the compiled kernels are not cached yet (the first run takes ~30 s)."""
+    if command not in _COMPILING:
+        return
+    try:
+        from pathlib import Path
+
+        from armctl.kinematics import _kernels
+
+        cache = Path(_kernels.chain_fk._cache._cache_path)  # type: ignore[attr-defined]
+        if any(cache.glob("_kernels.chain_fk-*.nbi")):
+            return
+    except Exception:  # the notice is a courtesy: numba internals may differ between versions
+        return
+    print("armctl: first run: compiling the numerical kernels (about half a minute, once)...",
+          file=sys.stderr, flush=True)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line.
 
@@ -63,6 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    _first_run_notice(args.command)
     try:
         return int(args.func(args) or 0)
     except ArmctlError as exc:
