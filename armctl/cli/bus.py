@@ -10,7 +10,7 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from armctl.cli._common import add_config, add_json, emit, fmt, table
-from armctl.errors import InputError
+from armctl.errors import BusError, InputError, UnknownNameError
 
 if TYPE_CHECKING:
     from armctl.config.schema import ArmSpec
@@ -111,6 +111,30 @@ def _arm_bus(args: argparse.Namespace) -> ArmBus:
     return ArmBus.from_spec(spec, cal)
 
 
+def _unknown_joint(name: str, valid: tuple[str, ...], context: str) -> UnknownNameError:
+    """The error for a joint name that has no servo, suggesting the nearest valid name.
+
+    Besides whole-name similarity, a name close to one word of a valid name (``elbw`` for
+    ``elbow_flex``) is suggested.
+    """
+    import difflib
+
+    err = UnknownNameError("servo joint", name, valid, context)
+    if "did you mean" in err.message:
+        return err
+
+    def score(v: str) -> float:
+        parts = [v, *v.replace("-", "_").split("_")]
+        return max(difflib.SequenceMatcher(None, name.lower(), p.lower()).ratio() for p in parts)
+
+    best = max(valid, key=score, default=None)
+    if best is not None and score(best) >= 0.75:
+        head = f"unknown servo joint {name!r}" + (f" in {context}" if context else "")
+        err.message = err.message.replace(head, f"{head}; did you mean {best!r}?", 1)
+        err.args = (err.message,)
+    return err
+
+
 def _is_rotary(ab: ArmBus, name: str) -> bool:
     from armctl.config.schema import JointType
 
@@ -143,6 +167,7 @@ def cmd_scan(args: argparse.Namespace) -> int:
     protocols = [Protocol(args.protocol)] if args.protocol else [Protocol.DYNAMIXEL,
                                                                  Protocol.FEETECH]
     rows, data = [], []
+    tried: list[str] = []
     for protocol in protocols:
         bauds: tuple[int, ...] = _FT_BAUDS if protocol is Protocol.FEETECH else _DXL_BAUDS
         if args.baud != "all":
@@ -160,18 +185,51 @@ def cmd_scan(args: argparse.Namespace) -> int:
                 raise
             try:
                 found = bus.scan()
+                firmware = {f.servo_id: _firmware(bus, f) for f in found}
             finally:
                 bus.close()
             for f in found:
+                fw = firmware[f.servo_id]
                 rows.append([protocol.value, str(baud), str(f.servo_id), str(f.model_number),
-                             f.model or "?", "-" if f.firmware is None else str(f.firmware)])
+                             f.model or "?", fw or "-"])
                 data.append({"protocol": protocol.value, "baudrate": baud, "id": f.servo_id,
                              "model_number": f.model_number, "model": f.model,
-                             "firmware": f.firmware})
-    text = table(["protocol", "baud", "id", "model#", "model", "firmware"], rows, [1, 2, 3]) \
-        if rows else f"no servos answered on {args.port}"
-    emit(args, {"port": args.port, "servos": data}, text)
+                             "firmware": fw})
+            tried.append(f"{', '.join(str(b) for b in bauds)} bit/s ({protocol.value})")
+    if not rows:
+        raise BusError(f"no servos answered on {args.port} at {'; '.join(tried) or args.baud} "
+                       "(check power, wiring, baud rate, protocol)")
+    headers = ["protocol", "baud", "id", "model#", "model", "firmware"]
+    if all(d["firmware"] is None for d in data):  # no model here reports its firmware
+        headers, rows = headers[:-1], [r[:-1] for r in rows]
+    emit(args, {"port": args.port, "servos": data}, table(headers, rows, [1, 2, 3]))
     return 0
+
+
+def _firmware(bus: Any, found: Any) -> str | None:
+    """The firmware version of a found servo, ``None`` when unknown.
+
+    From its ping when the protocol reports it, else read from its control table's firmware
+    registers (``major.minor`` where the table has both).
+    """
+    from armctl.servo.errors import ServoBusError
+    from armctl.servo.tables import Register, table_for
+
+    if found.firmware is not None:
+        return str(found.firmware)
+    if found.model is None:
+        return None
+    tab = table_for(found.model)
+    if Register.FIRMWARE not in tab.registers:
+        return None
+    bus.tables[found.servo_id] = tab
+    try:
+        major = bus.read(found.servo_id, Register.FIRMWARE)
+        if Register.FIRMWARE_MINOR in tab.registers:
+            return f"{major}.{bus.read(found.servo_id, Register.FIRMWARE_MINOR)}"
+        return str(major)
+    except ServoBusError:
+        return None
 
 
 # ---- status and torque --------------------------------------------------------------------------
@@ -221,8 +279,11 @@ def cmd_torque(args: argparse.Namespace) -> int:
     """Switch torque on or off."""
     ab = _arm_bus(args)
     on = args.state == "on"
+    joints = args.joints or list(ab.joint_names)
+    for name in joints:
+        if name not in ab.joint_names:
+            raise _unknown_joint(name, ab.joint_names, f"arm {ab.arm_name!r}")
     with ab:
-        joints = args.joints or list(ab.joint_names)
         ab.set_torque(on, joints)
         state = ab.torque()
     emit(args, {"torque": {n: state[n] for n in joints}},

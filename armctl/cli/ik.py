@@ -59,6 +59,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     add_config(p)
     add_goal_arguments(p)
+    p.add_argument("--force-pose", action="store_true",
+                   help="solve a full pose (--rpy/--quat) even when fewer than 6 joints move "
+                        "the frame (such a pose is reachable only on a 5-DOF subset)")
     add_solver_arguments(p)
     add_constraint_arguments(p)
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
@@ -213,17 +216,108 @@ def cmd_ik(args: argparse.Namespace) -> int:
 
     arm = load_arm_arg(args)
     req = build_request(args, arm)
+    asked_pose = args.xyz is not None and (args.rpy is not None or args.quat is not None)
+    if asked_pose and not args.force_pose:
+        check_pose_dof(arm, req.goals[-1:])  # the command line's goal comes last
     if args.all:
         return _cmd_all(args, arm, req)
+    _warm_up(arm, req)
     res = arm.ik(list(req.goals), req.q0, req.solver, options=req.options,
                  constraints=req.constraints)
     data, text = _report(arm, req, res, args.deg)
     if not res.success:
-        stats = text.split("\n", 1)[0].rsplit("; ", 1)[-1]  # iterations, restarts, time
-        raise IKFailedError(res, f"no solution: {res.message}\nclosest configuration found "
-                            f"({stats}):" + text.split("\n", 1)[1], data)
+        hints = [h for h in (reach_hint(arm, g) for g in req.goals) if h]
+        message = "; ".join([f"no solution: {res.message}", *hints])
+        closest = ("closest configuration found "
+                   f"({res.iterations} iterations, {res.restarts} restarts, "
+                   f"{res.time * 1e3:.2f} ms):\n" + text.split("\n", 1)[1].lstrip("\n"))
+        data["closest"] = closest
+        if hints:
+            data["hints"] = hints
+        if args.json:  # the JSON message is one line; the closest pose is in error.details
+            raise IKFailedError(res, message, data)
+        raise IKFailedError(res, f"{message}\n{closest}", data)
     emit(args, data, text)
     return 0
+
+
+def _pose_goal_types() -> tuple[type, ...]:
+    from armctl.ik import PoseGoal
+
+    return (PoseGoal,)
+
+
+def check_pose_dof(arm: Arm, goals: tuple[Goal, ...]) -> None:
+    """Refuse a full pose goal for a frame that fewer than 6 joints move (before solving).
+
+    Raises:
+        InputError: Naming the arm, the joint count and the goals that can be reached instead.
+    """
+    for goal in goals:
+        if not isinstance(goal, _pose_goal_types()):
+            continue
+        n = len(arm.chain(goal.frame))
+        if n < 6:
+            frame = "its tool" if goal.frame in (None, arm.tool) else f"frame {goal.frame!r}"
+            raise InputError(
+                f"arm {arm.name!r} moves {frame} with {n} joints: a full 6-DOF pose is "
+                "generally unreachable; give --direction AXIS DX DY DZ (5-DOF) or only --xyz "
+                "(or --force-pose to try anyway)")
+
+
+def max_reach(arm: Arm, frame: str | None = None) -> float:
+    """An upper bound of the distance from the first joint of a frame's chain to the frame [m].
+
+    The sum of the distances between consecutive joint origins along the chain, plus the
+    frame's offset from the last joint, plus the stroke of prismatic joints: no configuration
+    puts the frame farther from the first joint.
+    """
+    import numpy as np
+
+    chain = arm.chain(frame)
+    jd = arm._jd
+    total = 0.0
+    for k, j in enumerate(chain):
+        if k > 0:
+            total += float(np.linalg.norm(jd[j, [3, 7, 11]]))
+        if jd[j, 15] > 0.5:  # prismatic: the joint moves its child along the axis
+            total += float(max(abs(arm.lower[j]), abs(arm.upper[j])))
+    total += float(np.linalg.norm(arm._fd[arm.frame_index(frame), [3, 7, 11]]))
+    return total
+
+
+def reach_hint(arm: Arm, goal: Goal) -> str | None:
+    """A sentence when a goal's position lies beyond the arm's reach, else ``None``."""
+    import numpy as np
+
+    target = getattr(goal, "position", None)
+    if target is None and hasattr(goal, "pose"):
+        target = np.asarray(goal.pose)[:3, 3]
+    chain = arm.chain(goal.frame)
+    if target is None or not chain:
+        return None
+    first = arm._jd[chain[0]]
+    base = first[[3, 7, 11]]  # the first joint's parent is the base: its origin in the base
+    dist = float(np.linalg.norm(np.asarray(target, dtype=float) - base))
+    reach = max_reach(arm, goal.frame)
+    if dist <= reach:
+        return None
+    return (f"goal is {dist:.3g} m from the base joint; the arm reaches at most about "
+            f"{reach:.2f} m")
+
+
+def _warm_up(arm: Arm, req: IKRequest) -> None:
+    """Run the solver once with a one-iteration budget before the timed solve.
+
+    The first call of a compiled solver loads its kernels (hundreds of ms); the time printed
+    must be the solve's own.
+    """
+    from dataclasses import replace
+
+    if req.solver == "nlp" or req.constraints:
+        return  # the NLP builds its problem per goal: nothing reusable to load beforehand
+    options = replace(req.options, max_iterations=1, restarts=0, time_limit=1.0)
+    arm.ik(list(req.goals), req.q0, req.solver, options=options)
 
 
 def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[str, Any], str]:

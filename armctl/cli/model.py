@@ -5,9 +5,14 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from armctl.cli._common import add_config, add_json, emit, fmt, load_arm_arg, parse_angles, table
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from armctl.arm import Arm
 
 ORDER = 10
 
@@ -157,10 +162,10 @@ def cmd_fk(args: argparse.Namespace) -> int:
     arm = load_arm_arg(args)
     q = parse_angles(args.q, args.deg, arm)
     frame = args.frame or arm.tool
-    pose = arm.fk(q, frame)
-    rpy = matrix_to_rpy(pose[:3, :3])
-    quat = matrix_to_quat(pose[:3, :3])
-    inside = arm.within_limits(q)
+    pose = arm.fk(q, frame) + 0.0  # + 0.0 turns -0.0 into 0.0
+    rpy = matrix_to_rpy(pose[:3, :3]) + 0.0
+    quat = matrix_to_quat(pose[:3, :3]) + 0.0
+    outside = _outside_limits(arm, q, args.deg)
     lines = [
         f"frame {frame!r} of arm {arm.name!r}",
         f"position [m]      x {fmt(pose[0, 3], 6)}  y {fmt(pose[1, 3], 6)}  z {fmt(pose[2, 3], 6)}",
@@ -169,12 +174,34 @@ def cmd_fk(args: argparse.Namespace) -> int:
         f"quat [w x y z]    {'  '.join(fmt(a, 6) for a in quat)}",
         "matrix:",
     ]
-    lines += ["  " + "  ".join(f"{v:10.6f}" for v in row) for row in pose]
-    if not inside:
-        lines.append("note: these joint values are outside the joint limits")
+    lines += ["  " + "  ".join(fmt(v, 6).rjust(10) for v in row) for row in pose]
+    for text in outside.values():
+        lines.append(f"note: {text}")
     emit(args, {"frame": frame, "q": q, "position": pose[:3, 3], "rpy": rpy, "quaternion": quat,
-                "matrix": pose, "within_limits": inside}, "\n".join(lines))
+                "matrix": pose, "within_limits": not outside,
+                "outside_limits": [{"joint": n, "value": float(q[arm.joint_index(n)]),
+                                    "lower": float(arm.lower[arm.joint_index(n)]),
+                                    "upper": float(arm.upper[arm.joint_index(n)])}
+                                   for n in outside]}, "\n".join(lines))
     return 0
+
+
+def _outside_limits(arm: Arm, q: np.ndarray, deg: bool) -> dict[str, str]:
+    """Joint name -> a sentence, for every joint of ``q`` outside its limits."""
+    from armctl.config.schema import JointType
+
+    out = {}
+    for i, name in enumerate(arm.joint_names):
+        v, lo, hi = float(q[i]), float(arm.lower[i]), float(arm.upper[i])
+        if lo - 1e-9 <= v <= hi + 1e-9:
+            continue
+        if arm.joint_types[i] is JointType.PRISMATIC:
+            unit, k = "m", 1.0
+        else:
+            unit, k = ("deg", 180.0 / math.pi) if deg else ("rad", 1.0)
+        out[name] = (f"joint {name!r} = {fmt(v * k, 4)} {unit} is outside its limits "
+                     f"[{fmt(lo * k, 4)}, {fmt(hi * k, 4)}] {unit}")
+    return out
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
@@ -198,7 +225,9 @@ def cmd_convert(args: argparse.Namespace) -> int:
     spec = imported.spec
     emit(args, {"output": str(out), "dof": len(spec.actuated_joints), "tool": spec.tool,
                 "notes": list(imported.notes)},
-         f"wrote {out} ({len(spec.actuated_joints)} DOF, tool {spec.tool!r})"
+         f"wrote {out} ({len(spec.actuated_joints)} DOF)\n"
+         + (f"tool: {spec.tool} (from --tip)" if args.tip else
+            f"tool: {spec.tool} (override with --tip LINK)")
          + "".join(f"\nnote: {n}" for n in imported.notes))
     return 0
 

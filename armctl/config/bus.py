@@ -68,6 +68,33 @@ class BusSpec:
         return self.port == SIM_PORT
 
 
+def _model(s: Section, protocol: Protocol) -> str:
+    """The servo model name of one servo entry, checked against the known control tables.
+
+    Raises:
+        ConfigError: For an unknown model, or one that does not speak the bus's protocol.
+    """
+    import difflib
+
+    from armctl.servo.tables import TABLES, Family  # the servo layer's tables, loaded lazily
+
+    raw = s.string("model")
+    model = raw.lower()
+    table = TABLES.get(model)
+    if table is None:
+        known = sorted(TABLES)
+        close = difflib.get_close_matches(model, known, n=1)
+        fix = ((f"did you mean {close[0]!r}? " if close else "")
+               + f"known models: {', '.join(known)}")
+        raise s.error(f"unknown servo model {raw!r}", "model", fix=fix)
+    family = Family.FEETECH if protocol is Protocol.FEETECH else Family.DYNAMIXEL
+    if table.family is not family:
+        raise s.error(f"{raw!r} is a {table.family.value} servo but the bus protocol is "
+                      f"{protocol.value!r}", "model",
+                      fix="fix the model, or the bus's 'protocol'")
+    return model
+
+
 def parse_bus(sec: Section) -> BusSpec:
     """Validate a ``bus:`` section.
 
@@ -93,7 +120,7 @@ def parse_bus(sec: Section) -> BusSpec:
         if direction not in (1, -1):
             raise s.error(f"direction must be 1 or -1, found {direction}", "direction")
         servos.append(ServoSpec(
-            joint=joint, id=sid, model=s.string("model").lower(),
+            joint=joint, id=sid, model=_model(s, protocol),
             offset=s.number("offset", 0.0, angle=True), direction=direction,
             gear_ratio=s.number("gear_ratio", 1.0, positive=True), where=s.where(),
         ))

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -279,8 +280,25 @@ def _choose_tip(joints: list[JointSpec], base: str, names: list[str], tip: str |
         if tip not in names:
             raise UnknownNameError("link", tip, names, "the URDF (tip)")
         return tip
+    reached = {j.child for j in joints}
+    for match in _TOOL_NAMES:
+        found = [n for n in names if n in reached and match(n.lower())]
+        if found:
+            return max(found, key=lambda n: (_depth(joints, n), -found.index(n)))
     leaves = _leaves(joints, base)
     return max(leaves, key=lambda leaf: (_depth(joints, leaf), -leaves.index(leaf)))
+
+
+#: How a link is recognised as the tool frame, best first (names compared in lower case);
+#: without any, the deepest leaf is the tool.
+_TOOL_NAMES: tuple[Callable[[str], bool], ...] = (
+    *(lambda n, exact=exact: n == exact
+      for exact in ("tcp", "tool0", "tool", "ee", "end_effector")),
+    lambda n: n.endswith("_tcp"),
+    lambda n: "tcp" in n,
+    lambda n: "gripper_frame" in n,
+    lambda n: "ee_link" in n,
+)
 
 
 def _path_links(joints: list[JointSpec], base: str, tip: str) -> set[str]:

@@ -186,15 +186,14 @@ def _finish(name: str, model: KinematicModel, goals: tuple[Goal, ...], q: Array,
         st = IKStatus.CONVERGED
     elif status == E.TIME_LIMIT:
         st = IKStatus.TIME_LIMIT
-        message = f"time limit reached after {attempts} start(s); the closest q found is returned"
+        message = f"time limit reached after {attempts} start(s)"
     elif stalled >= attempts:
         st = IKStatus.UNREACHABLE
         message = (f"none of {attempts} start(s) reached the goal (each stopped at a minimum "
-                   "of the error); the closest q found is returned")
+                   "of the error)")
     else:
         st = IKStatus.MAX_ITERATIONS
-        message = (f"iteration budget used up in {attempts} start(s); the closest q found is "
-                   "returned")
+        message = f"iteration budget used up in {attempts} start(s)"
     return finish(model, goals, q, solver=name, status=st, iterations=int(iters),
                   restarts=max(int(attempts) - 1, 0), started=started, message=message)
 

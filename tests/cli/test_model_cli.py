@@ -82,3 +82,30 @@ def test_arms_lists_bundled_configs(capsys: pytest.CaptureFixture[str]) -> None:
     assert code == 0
     names = {a["name"] for a in json.loads(out)["arms"]}
     assert {"so101", "ur5e"} <= names
+
+
+def test_fk_names_every_joint_outside_its_limits(capsys: pytest.CaptureFixture[str]) -> None:
+    arm = armctl.load_arm(PLANAR)
+    assert arm.upper[1] == 3 and arm.lower[2] == -3
+    code, out, _ = run(capsys, "fk", PLANAR, "0.5", "3.5", "-4")
+    assert code == 0
+    assert "note: joint 'j2' = 3.5000 rad is outside its limits [-3.0000, 3.0000] rad" in out
+    assert "note: joint 'j3' = -4.0000 rad is outside its limits [-3.0000, 3.0000] rad" in out
+    assert "'j1'" not in out
+    code, out, _ = run(capsys, "fk", PLANAR, "0.5", "3.5", "-4", "--json")
+    data = json.loads(out)
+    assert data["within_limits"] is False
+    assert [(o["joint"], o["value"], o["upper"]) for o in data["outside_limits"]] == [
+        ("j2", 3.5, 3.0), ("j3", -4.0, 3.0)]
+
+
+def test_fk_never_prints_negative_zero(capsys: pytest.CaptureFixture[str]) -> None:
+    arm = armctl.load_arm(PLANAR)
+    q = [np.pi / 2, np.pi / 2, 0.0]
+    # the pose has entries that the plain format would print as -0.000000
+    assert any(f"{v:.6f}" == "-0.000000" for v in arm.fk(q).ravel())
+    code, out, _ = run(capsys, "fk", PLANAR, *map(str, q))
+    assert code == 0 and "matrix:" in out
+    assert "-0.000000" not in out and "-0.000" not in out
+    code, out, _ = run(capsys, "fk", PLANAR, *map(str, q), "--json")
+    assert "-0.0," not in out and "-0.0\n" not in out

@@ -123,3 +123,48 @@ joints:
     pose = arm.fk(q)
     np.testing.assert_allclose(pose[:3, :3], hand, atol=1e-14)
     np.testing.assert_allclose(pose[:3, 3], r @ [0, 0, 0.3], atol=1e-14)
+
+
+_TOOL_URDF = """<robot name="t"><link name="base"/><link name="l1"/><link name="hand"/>
+  <link name="finger_a"/><link name="finger_a_pad"/>{extra_links}
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="hand"/>
+    <origin xyz="0.2 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
+  <joint name="f" type="prismatic"><parent link="hand"/><child link="finger_a"/>
+    <axis xyz="0 1 0"/><limit lower="0" upper="0.04" velocity="1" effort="1"/></joint>
+  <joint name="pad" type="fixed"><parent link="finger_a"/><child link="finger_a_pad"/></joint>
+  {extra_joints}</robot>"""
+
+
+def _tool_urdf(*frames: str) -> str:
+    links = "".join(f'<link name="{n}"/>' for n in frames)
+    joints = "".join(f'<joint name="fix_{n}" type="fixed"><parent link="hand"/>'
+                     f'<child link="{n}"/><origin xyz="0.1 0 0"/></joint>' for n in frames)
+    return _TOOL_URDF.format(extra_links=links, extra_joints=joints)
+
+
+@pytest.mark.parametrize(("frames", "tool"), [
+    ((), "finger_a_pad"),  # no tool-like name: the deepest leaf
+    (("tcp",), "tcp"),
+    (("arm_gripper_frame", "tool0"), "tool0"),
+    (("hand_tcp", "my_ee_link"), "hand_tcp"),
+    (("xtcpx", "arm_gripper_frame"), "xtcpx"),
+    (("arm_gripper_frame", "my_ee_link"), "arm_gripper_frame"),
+    (("my_ee_link",), "my_ee_link"),
+    (("end_effector", "hand_tcp"), "end_effector"),
+])
+def test_the_tool_is_a_tool_frame_before_a_finger(frames: tuple[str, ...], tool: str) -> None:
+    assert parse_urdf(_tool_urdf(*frames)).spec.tool == tool
+
+
+def test_convert_names_the_tool_it_chose(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    src = tmp_path / "t.urdf"
+    src.write_text(_tool_urdf("tcp"))
+    assert main(["convert", str(src), "-o", str(tmp_path / "t.yaml")]) == 0
+    assert "tool: tcp (override with --tip LINK)" in capsys.readouterr().out
+    arm = armctl.load_arm(tmp_path / "t.yaml")
+    assert arm.tool == "tcp"
+    np.testing.assert_allclose(arm.fk([0.0, 0.0, 0.0])[:3, 3], [0.3, 0, 0], atol=1e-15)

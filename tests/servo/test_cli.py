@@ -181,3 +181,56 @@ def test_status_live_table_stops_on_ctrl_c(capsys: pytest.CaptureFixture[str],
     assert main(["status", str(DATA / "so_sim.yaml"), "--interval", "0.5"]) == 0
     out = capsys.readouterr().out
     assert out.count("shoulder_pan") == 2 and "Ctrl-C" in out and calls == [0.5, 0.5]
+
+
+def test_torque_suggests_the_nearest_joint(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["torque", str(DATA / "so_sim.yaml"), "off", "elbw"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown servo joint 'elbw'" in err and "did you mean 'elbow_flex'?" in err
+    assert "'shoulder_pan'" in err  # the valid names are listed
+
+
+def test_scan_without_answers_exits_4(capsys: pytest.CaptureFixture[str]) -> None:
+    sim = SimulatedBus([SimServoSpec(3, "sts3215")], Protocol.FEETECH)
+    with sim:
+        code = main(["scan", "--port", sim.port, "--protocol", "feetech", "--baud", "500000"])
+    assert code == 4
+    err = capsys.readouterr().err
+    assert f"no servos answered on {sim.port} at 500000 bit/s (feetech)" in err
+    assert "(check power, wiring, baud rate, protocol)" in err
+
+
+def test_scan_reads_the_firmware_version(capsys: pytest.CaptureFixture[str]) -> None:
+    sim = SimulatedBus([SimServoSpec(3, "sts3215")], Protocol.FEETECH)
+    with sim:
+        servo = sim.servo(3)
+        expected = f"{servo.get(Register.FIRMWARE)}.{servo.get(Register.FIRMWARE_MINOR)}"
+        assert main(["scan", "--port", sim.port, "--protocol", "feetech", "--json"]) == 0
+        assert _json(capsys)["servos"][0]["firmware"] == expected
+        assert main(["scan", "--port", sim.port, "--protocol", "feetech"]) == 0
+    text = capsys.readouterr().out
+    assert "firmware" in text and expected in text
+
+
+def test_unknown_servo_model_names_file_key_and_line(capsys: pytest.CaptureFixture[str],
+                                                     tmp_path: Path) -> None:
+    text = (DATA / "so_sim.yaml").read_text()
+    lines = text.splitlines()
+    row = next(i for i, t in enumerate(lines) if t.strip().startswith("elbow_flex: {id: 3"))
+    lines[row] = lines[row].replace("sts3215", "sts3251")
+    cfg = tmp_path / "arm.yaml"
+    cfg.write_text("\n".join(lines) + "\n")
+    assert main(["status", str(cfg), "--once"]) == 2
+    err = capsys.readouterr().err
+    assert f"{cfg}:{row + 1}: bus.servos.elbow_flex.model: unknown servo model 'sts3251'" in err
+    assert "did you mean 'sts3215'?" in err
+
+
+def test_servo_model_of_the_wrong_family_is_a_config_error(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    cfg = tmp_path / "arm.yaml"
+    cfg.write_text((DATA / "so_sim.yaml").read_text().replace(
+        "wrist_flex: {id: 4, model: sts3215}", "wrist_flex: {id: 4, model: xl430-w250}"))
+    assert main(["status", str(cfg), "--once"]) == 2
+    err = capsys.readouterr().err
+    assert "bus.servos.wrist_flex.model: 'xl430-w250' is a dynamixel servo" in err
