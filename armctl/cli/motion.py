@@ -14,10 +14,16 @@ from armctl.cli._common import add_config, add_json, emit, fmt, parse_angles, ta
 from armctl.errors import ArmctlError, InputError
 
 if TYPE_CHECKING:
+    from armctl.arm import Arm
     from armctl.motion import MotionPlan
     from armctl.robot import CycleInfo, MoveReport, Robot
 
 ORDER = 40
+
+#: A plan shorter than this [s] does not move the arm.
+_STILL_TIME = 1e-6
+#: Start and goal closer than this [rad]/[m] are the same position.
+_STILL_GAP = 1e-6
 
 
 # ---- arguments -------------------------------------------------------------------------------
@@ -151,22 +157,45 @@ def _plan_data(robot: Robot, plan: MotionPlan) -> dict[str, Any]:
             "peak_velocity_ratio": vr, "peak_acceleration_ratio": ar}
 
 
+def _shown(arm: Arm, i: int, value: float) -> tuple[str, str]:
+    """A joint value for text output: degrees for rotary joints, millimetres for prismatic."""
+    from armctl.config.schema import JointType
+
+    if arm.joint_types[i] is JointType.PRISMATIC:
+        return fmt(value * 1000.0, 2), "mm"
+    return fmt(math.degrees(value), 2), "deg"
+
+
 def _plan_text(robot: Robot, plan: MotionPlan, head: str) -> str:
-    rows = [[n, fmt(math.degrees(a), 2), fmt(math.degrees(b), 2)]
-            for n, a, b in zip(robot.arm.joint_names, plan.start, plan.goal, strict=True)]
+    arm = robot.arm
+    rows = [[n, _shown(arm, i, a)[0], *_shown(arm, i, b)]
+            for i, (n, a, b) in enumerate(zip(arm.joint_names, plan.start, plan.goal,
+                                              strict=True))]
     vr, ar = plan.peak_ratios()
     return (f"{head}\nplan: {plan.description}, duration {plan.duration:.2f} s, planned in "
             f"{plan.planning_time * 1000:.1f} ms ({plan.samples_checked} samples checked; peak "
             f"velocity {vr:.0%}, acceleration {ar:.0%} of the limits)\n"
-            + table(["joint", "from [deg]", "to [deg]"], rows, right=[1, 2]))
+            + table(["joint", "from", "to", "unit"], rows, right=[1, 2]))
 
 
-def _stream_text(report: MoveReport) -> tuple[dict[str, Any], str]:
+def _nothing_to_do(plan: MotionPlan, endpoints: bool = True) -> bool:
+    """Whether a plan does not move the arm (zero duration, or start = goal without events)."""
+    if plan.duration < _STILL_TIME:
+        return True
+    gap = float(np.max(np.abs(plan.goal - plan.start), initial=0.0))
+    return endpoints and not plan.events and gap < _STILL_GAP
+
+
+def _stream_text(robot: Robot, report: MoveReport, idle: str | None = None
+                 ) -> tuple[dict[str, Any], str]:
+    """Streaming figures; ``idle`` is the message when the plan did not move the arm."""
     res = report.result
+    if idle is not None:
+        return {"moved": False, "nothing_to_do": True}, idle
     if res is None:
         return {"moved": False}, "dry run: nothing moved"
     s = res.stats
-    data = {"moved": True, "final_joints": res.final.tolist(),
+    data = {"moved": True, "final_joints": robot.arm.values_by_name(res.final),
             "loop_rate": s.achieved_rate, "jitter_p99": s.jitter_p99,
             "max_tracking_error": float(np.max(s.max_tracking_error, initial=0.0)),
             "settle_time": s.settle_time}
@@ -222,6 +251,10 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
                 f"({type(goal).__name__}); "
                 + (f"IK solver {ik.solver} ({ik.iterations} iterations, "
                    f"{ik.position_error * 1000:.3f} mm)" if ik else "straight line"))
+        if _nothing_to_do(plan):
+            from armctl.robot import MoveReport
+
+            return MoveReport(plan, None, ik)
         if not args.json:
             print(_plan_text(robot, plan, head), flush=True)
         if args.dry_run:
@@ -238,14 +271,16 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
     robot, report = _run(args, go)
     data: dict[str, Any] = {"plan": _plan_data(robot, report.plan),
                             "solver": report.ik.solver if report.ik else None}
-    sdata, stext = _stream_text(report)
+    idle = "already at the goal; nothing to do" if _nothing_to_do(report.plan) else None
+    sdata, stext = _stream_text(robot, report, idle)
     data.update(sdata)
     text = stext
     if report.reached is not None:
         from armctl.spatial import matrix_to_rpy
 
-        rpy = np.degrees(matrix_to_rpy(report.reached[:3, :3]))
-        data.update({"reached_xyz": report.reached[:3, 3], "reached_rpy_deg": rpy,
+        rpy_rad = matrix_to_rpy(report.reached[:3, :3])
+        rpy = np.degrees(rpy_rad)
+        data.update({"reached_xyz": report.reached[:3, 3], "reached_rpy": rpy_rad,
                      "position_error": report.position_error,
                      "rotation_error": report.rotation_error})
         text += (f"\nreached xyz {np.round(report.reached[:3, 3], 4).tolist()} m, rpy "
@@ -260,21 +295,56 @@ def cmd_move_joints(args: argparse.Namespace) -> int:
     """``armctl move-joints``."""
     from armctl.arm import load_arm
 
-    q = parse_angles(args.values, args.deg, load_arm(args.config), "move-joints values")
-    return _joint_command(args, lambda robot: q, "move to joint values")
+    arm = load_arm(args.config)
+    q = parse_angles(args.values, args.deg, arm, "move-joints values")
+    _check_values(arm, q, args.deg)
+    return _joint_command(args, lambda robot: q, "move to joint values",
+                          "already at these joint values; nothing to do")
 
 
 def cmd_named(args: argparse.Namespace) -> int:
     """``armctl home`` and ``armctl park``."""
     return _joint_command(args, lambda robot: robot.arm.named_pose(args.pose),
-                          f"move to the {args.pose!r} pose")
+                          f"move to the {args.pose!r} pose",
+                          f"already at the {args.pose!r} pose; nothing to do")
 
 
-def _joint_command(args: argparse.Namespace, target: Any, what: str) -> int:
+def _check_values(arm: Arm, q: np.ndarray, deg: bool) -> None:
+    """Refuse joint values outside the limits, saying so in the unit they were given in.
+
+    Raises:
+        JointValueError: For the first joint outside its limits; without ``--deg`` a rotary
+            value that would be inside its limits in degrees adds "did you forget --deg?".
+    """
+    from armctl.config.schema import JointType
+    from armctl.robot.errors import JointValueError
+
+    for i, name in enumerate(arm.joint_names):
+        v, lo, hi = float(q[i]), float(arm.lower[i]), float(arm.upper[i])
+        if lo - 1e-9 <= v <= hi + 1e-9:
+            continue
+        hint = "choose a value inside the limits or widen them in the arm config"
+        if arm.joint_types[i] is JointType.PRISMATIC:
+            unit, scale = "m", 1.0
+        elif deg:
+            unit, scale = "deg", math.degrees(1.0)
+        else:
+            unit, scale = "rad", 1.0
+            if lo <= math.radians(v) <= hi:
+                hint = f"did you forget --deg? ({v:g} deg is inside the limits)"
+        raise JointValueError(
+            name, v, lo, hi, f"joint {name!r}: {v * scale:.6g} {unit} is outside its limits "
+            f"[{lo * scale:.6g}, {hi * scale:.6g}] {unit} (goal of move-joints); nothing was "
+            f"sent; {hint}")
+
+
+def _joint_command(args: argparse.Namespace, target: Any, what: str, idle: str) -> int:
     def go(robot: Robot, progress: _Progress) -> MoveReport:
         from armctl.robot import MoveReport
 
         plan = robot.plan_joints(target(robot), args.speed, what)
+        if _nothing_to_do(plan):
+            return MoveReport(plan)
         if not args.json:
             print(_plan_text(robot, plan, f"arm {robot.arm.name}"), flush=True)
         if args.dry_run:
@@ -284,7 +354,7 @@ def _joint_command(args: argparse.Namespace, target: Any, what: str) -> int:
 
     robot, report = _run(args, go)
     data = {"plan": _plan_data(robot, report.plan)}
-    sdata, text = _stream_text(report)
+    sdata, text = _stream_text(robot, report, idle if _nothing_to_do(report.plan) else None)
     data.update(sdata)
     emit(args, data, text)
     return 0
@@ -295,6 +365,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     from armctl.arm import load_arm
     from armctl.motion import Interpolation, PlaybackOptions, load_keyframes
 
+    _refuse_swapped(args.file, args.config)
     arm = load_arm(args.config)
     program = load_keyframes(args.file, arm)
     options = PlaybackOptions(
@@ -312,6 +383,8 @@ def cmd_play(args: argparse.Namespace) -> int:
             print(f"armctl: warning: the keyframes were taught with calibration "
                   f"{program.calibration}, the arm now uses {cal}", file=sys.stderr)
         plan = robot.plan_program(program, options, args.solver)
+        if _nothing_to_do(plan, endpoints=False):
+            return MoveReport(plan)
         if not args.json:
             print(_plan_text(robot, plan, f"arm {robot.arm.name}: play {args.file}"), flush=True)
         if args.preview:
@@ -327,7 +400,9 @@ def cmd_play(args: argparse.Namespace) -> int:
                                           for w in report.plan.waypoints],
                             "events": [{"time": e.time, "kind": e.kind, "name": e.name,
                                         "value": e.value} for e in report.plan.events]}
-    sdata, text = _stream_text(report)
+    idle = ("the program does not move the arm; nothing to do"
+            if _nothing_to_do(report.plan, endpoints=False) else None)
+    sdata, text = _stream_text(robot, report, idle)
     data.update(sdata)
     if args.preview:
         data["preview"] = args.preview
@@ -336,18 +411,41 @@ def cmd_play(args: argparse.Namespace) -> int:
     return 0
 
 
+def _refuse_swapped(file: str, config: str) -> None:
+    """Refuse ``armctl play CONFIG KEYFRAMES``: the config position holds a keyframe file.
+
+    Raises:
+        InputError: If ``config`` is a YAML file with an ``armctl_keyframes`` key.
+    """
+    from pathlib import Path
+
+    import yaml
+
+    path = Path(config)
+    if path.suffix.lower() not in (".yaml", ".yml") or not path.is_file():
+        return
+    try:
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return  # loading it as an arm config reports the problem
+    if isinstance(doc, dict) and "armctl_keyframes" in doc:
+        raise InputError(f"{config} is a keyframe file, not an arm config: the arguments look "
+                         f"swapped: use armctl play KEYFRAMES CONFIG (armctl play {config} "
+                         f"{file})")
+
+
 def _preview(robot: Robot, plan: MotionPlan, path: str) -> None:
     """Joint positions and velocities over time, with keyframes marked (matplotlib, headless)."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+    try:  # a bare Figure with the Agg canvas: no pyplot, no display, no global state
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
     except ImportError as exc:  # pragma: no cover - optional dependency
         raise InputError("--preview needs matplotlib (pip install 'armctl[render]')") from exc
     ts = np.linspace(0.0, plan.duration, max(2, int(plan.duration * 200)))
     q, qd, _ = plan.trajectory.sample_many(ts)
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig = Figure(figsize=(9, 6))
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
     for i, name in enumerate(robot.arm.joint_names):
         ax1.plot(ts, np.degrees(q[:, i]), label=name)
         ax2.plot(ts, np.degrees(qd[:, i]))
@@ -360,7 +458,6 @@ def _preview(robot: Robot, plan: MotionPlan, path: str) -> None:
     ax1.set_title(plan.description)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 TEACH_HELP = """commands (then Enter):

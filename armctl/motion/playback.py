@@ -15,12 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from armctl.config.schema import JointRole
-from armctl.errors import InputError, NoSolutionError
+from armctl.config.schema import JointRole, JointType
+from armctl.errors import ConfigError, InputError, KeyPath, NoSolutionError
 from armctl.kinematics.model import KinematicModel
 from armctl.motion.errors import LimitViolation
 from armctl.motion.interpolate import Interpolation, plan_run
-from armctl.motion.keyframes import KeyframeProgram
+from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram
 from armctl.motion.limits import MotionLimits, check_trajectory
 from armctl.motion.plan import Event, MotionPlan, Waypoint
 from armctl.motion.profiles import ruckig_move
@@ -36,6 +36,8 @@ Array = npt.NDArray[np.float64]
 IKFunction = Callable[[Array, Array, bool], Array]
 
 _SAME = 1e-9
+#: Slack of the keyframe limit check [rad]/[m].
+_LIMIT_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -153,6 +155,8 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
         raise InputError("the keyframe program has no keyframes")
     start = np.asarray(q_start, dtype=float)
     qs = resolve_keyframes(program, model, start, ik)
+    for k, (q, kf) in enumerate(zip(qs, program.keyframes, strict=True)):
+        _check_keyframe(program, model, k, kf, q)
     grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
     stops = [_Stop(q, kf.label if kf.name else f"#{k}", kf.dwell, kf.gripper, kf.time,
                    not options.blend or kf.dwell > 0 or kf.gripper is not None)
@@ -223,6 +227,35 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
             f"{'blended' if options.blend else 'stop at each'}, x{options.loops}")
     return MotionPlan(traj, limits, tuple(sorted(events, key=lambda e: e.time)),
                       tuple(waypoints), time.perf_counter() - t0, n, desc)
+
+
+def _check_keyframe(program: KeyframeProgram, model: KinematicModel, k: int, kf: Keyframe,
+                    q: Array) -> None:
+    """Refuse a keyframe (or its gripper value) outside the joint limits, naming file and line.
+
+    Raises:
+        ConfigError: In the file's angle unit, naming the keyframe, the joint and the limits.
+    """
+    grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
+    checks = [(i, float(q[i]), "") for i in range(model.dof)]
+    if kf.gripper is not None:
+        checks += [(i, float(kf.gripper), "gripper value for ") for i in grip]
+    for i, v, what in checks:
+        lo, hi = float(model.lower[i]), float(model.upper[i])
+        if lo - _LIMIT_TOL <= v <= hi + _LIMIT_TOL:
+            continue
+        unit, scale = "rad", 1.0
+        if model.joint_types[i] is JointType.PRISMATIC:
+            unit = "m"
+        elif program.angle_unit is AngleUnit.DEG:
+            unit, scale = "deg", float(np.degrees(1.0))
+        source = "" if kf.q is not None else " (IK solution of the pose)"
+        where = kf.where if kf.where.keys else KeyPath(keys=("keyframes", k), label=kf.label)
+        raise ConfigError(
+            f"{what}joint {model.joint_names[i]!r} would be "
+            f"{v * scale:.6g} {unit}{source}, outside its limits [{lo * scale:.6g}, "
+            f"{hi * scale:.6g}] {unit}; nothing was moved", where,
+            "change the keyframe to a value inside the joint limits")
 
 
 def _emit_run(run: list[_Stop], limits: MotionLimits, options: PlaybackOptions, timed: bool,

@@ -18,28 +18,35 @@ from armctl.errors import InputError, NoSolutionError
 if TYPE_CHECKING:
     from armctl.arm import Arm
     from armctl.motion import KeyframeProgram, MotionPlan
+    from armctl.motion.playback import IKFunction
 
 __all__ = ["PlannedLine", "plan_keyframes", "plan_straight_line", "sample_plan"]
 
 Array = npt.NDArray[np.float64]
 
 
-def _ik_for(arm: Arm, program: KeyframeProgram, solver: str) -> Any:
-    """IK for pose keyframes: a full pose goal, or a position goal where orientation is free."""
+def _ik_for(arm: Arm, program: KeyframeProgram, solver: str) -> IKFunction:
+    """IK for pose keyframes: a full pose goal, or a position goal where orientation is free.
+
+    Joints that do not move the keyframes' frame (a gripper) keep their seed value.
+    """
     from armctl.ik import PoseGoal, PositionGoal
 
     frame = program.frame or None
-    free = {id(kf.pose) for kf in program.keyframes if kf.pose is not None and not kf.orientation}
+    moving = set(arm.chain(frame))
+    still = [i for i in range(arm.dof) if i not in moving]
 
-    def ik(pose: Array, seed: Array) -> Array:
-        goal: Any = (PositionGoal(pose[:3, 3], frame=frame) if id(pose) in free
-                     else PoseGoal(pose, frame=frame))
+    def ik(pose: Array, seed: Array, orientation: bool) -> Array:
+        goal: Any = (PoseGoal(pose, frame=frame) if orientation
+                     else PositionGoal(pose[:3, 3], frame=frame))
         res = arm.ik(goal, q0=seed, solver=solver)
         if not res.success:
             raise NoSolutionError(f"{res.status.value}: closest found is "
                                   f"{res.position_error * 1000:.1f} mm and "
                                   f"{np.degrees(res.rotation_error):.1f} deg away")
-        return np.asarray(res.q, dtype=float)
+        q = np.array(res.q, dtype=float)
+        q[still] = np.asarray(seed, dtype=float)[still]
+        return q
 
     return ik
 

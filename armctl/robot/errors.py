@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from enum import Enum
 
-from armctl.errors import MotionAborted
+from armctl.errors import InputError, JointLimitError, MotionAborted
 
-__all__ = ["MotionStopped", "StopReason"]
+__all__ = ["JointValueError", "MotionStopped", "StopReason"]
 
 
 class StopReason(Enum):
@@ -40,3 +40,26 @@ class MotionStopped(MotionAborted):
         self.details = {"reason": reason.value, "joint": joint, "servo_id": servo_id,
                         "time": time}
         super().__init__(message)
+
+
+class JointValueError(JointLimitError):
+    """A requested joint value is outside its limits, reported in the unit the user wrote.
+
+    The attributes are in SI units ([rad] or [m]) like those of :class:`JointLimitError`; only
+    the message uses the user's unit.
+
+    Args:
+        joint: The joint's name.
+        value: The requested value [rad]/[m].
+        lower: Lower limit [rad]/[m].
+        upper: Upper limit [rad]/[m].
+        message: The whole message, in the user's unit, with a hint how to fix it.
+    """
+
+    def __init__(self, joint: str, value: float, lower: float, upper: float, message: str):
+        self.joint = joint
+        self.value = value
+        self.lower = lower
+        self.upper = upper
+        self.details = {"joint": joint, "value": value, "lower": lower, "upper": upper}
+        InputError.__init__(self, message)

@@ -24,8 +24,9 @@ import numpy.typing as npt
 from armctl.arm import Arm, load_arm
 from armctl.config.motion import ExitPolicy, MotionSpec
 from armctl.config.schema import JointRole
-from armctl.errors import ArmctlError, InputError, JointLimitError, NoSolutionError
-from armctl.ik import Goal, IKResult
+from armctl.errors import ArmctlError, InputError, JointLimitError
+from armctl.ik import Goal, IKResult, PositionGoal
+from armctl.ik.errors import IKFailedError
 from armctl.motion import (
     KeyframeProgram,
     MotionLimits,
@@ -231,16 +232,26 @@ class Robot:
         """IK from the present joints.
 
         Raises:
-            NoSolutionError: With the closest distance found, when the goal cannot be reached.
+            IKFailedError: A :class:`NoSolutionError` with the closest distance found, when the
+                goal cannot be reached; its ``details`` hold the closest joints and errors.
         """
         start = self.joints() if q0 is None else np.asarray(q0, dtype=float)
         res = self.arm.ik(goal, q0=start, solver=solver)
         if not res.success:
-            raise NoSolutionError(
-                f"the goal cannot be reached ({res.status.value}): closest found is "
+            advice = "Check the goal is inside the arm's reach"
+            if not isinstance(goal, PositionGoal):
+                advice += ", or give fewer orientation constraints"
+            advice += "."
+            details = {"status": res.status.value, "solver": res.solver,
+                       "closest_q": np.asarray(res.q, dtype=float),
+                       "closest_joints": self.arm.values_by_name(res.q),
+                       "position_error": res.position_error,
+                       "rotation_error": res.rotation_error,
+                       "closest_xyz": self.arm.fk(res.q, goal.frame)[:3, 3]}
+            raise IKFailedError(
+                res, f"the goal cannot be reached ({res.status.value}): closest found is "
                 f"{res.position_error * 1000:.1f} mm and {np.degrees(res.rotation_error):.1f} "
-                f"deg away (solver {res.solver}); nothing was moved. Check the goal is inside "
-                f"the arm's reach, or give fewer orientation constraints")
+                f"deg away (solver {res.solver}); nothing was moved. {advice}", details)
         return res
 
     def plan_pose(self, goal: Goal, *, linear: bool = False, speed: float | None = None,
@@ -312,8 +323,6 @@ class Robot:
         if goal is None:
             if xyz is None:
                 raise InputError("give a goal or xyz")
-            from armctl.ik import PositionGoal
-
             goal = PositionGoal(np.asarray(xyz, dtype=float))
         plan, ik = self.plan_pose(goal, linear=linear, speed=speed, solver=solver)
         if dry_run:
@@ -346,7 +355,7 @@ class Robot:
         """A checked plan of a keyframe program from the present pose."""
 
         def ik(pose: Array, seed: Array, orientation: bool) -> Array:
-            from armctl.ik import PoseGoal, PositionGoal
+            from armctl.ik import PoseGoal
 
             frame = program.frame or None
             goal: Goal = (PoseGoal(pose, frame=frame) if orientation else

@@ -198,3 +198,21 @@ def test_recording_that_stands_still_keeps_its_timing(arm3g: Arm, limits3g: Moti
         q, _, _ = plan.trajectory.sample_many(np.linspace(0.0, 0.95, 20))
         assert np.max(np.abs(q[:, 0])) < 1e-9, interp
         assert plan.trajectory.sample(2.0)[0][0] == pytest.approx(0.3, abs=1e-9)
+
+
+@pytest.mark.parametrize(("keyframe", "message"), [
+    (Keyframe(q=(0.1, 2.8, 0.0), name="reach"), "joint 'j2' would be 2.8 rad, outside its "
+                                                 "limits [-2.5, 2.5] rad"),
+    (Keyframe(q=(0.1, 0.2, 0.0), gripper=0.06), "gripper value for joint 'finger' would be "
+                                                "0.06 m, outside its limits [0, 0.04] m"),
+])
+def test_keyframe_outside_limits_is_bad_input(arm3g: Arm, limits3g: MotionLimits,
+                                              keyframe: Keyframe, message: str) -> None:
+    from armctl.errors import ConfigError
+
+    program = KeyframeProgram("arm3g", ("j1", "j2", "j3"),
+                              (Keyframe(q=(0.0, 0.0, 0.0)), keyframe))
+    with pytest.raises(ConfigError) as err:
+        plan_program(program, arm3g, limits3g, np.zeros(arm3g.dof))
+    assert err.value.exit_code == 2 and message in str(err.value)
+    assert err.value.where.keys == ("keyframes", 1)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from armctl_testpaths import BUNDLED
-from PIL import Image
+from PIL import Image, ImageSequence
 
 from armctl.arm import load_arm
 from armctl.cli import main
@@ -150,3 +150,24 @@ def test_render_motion_bad_input(tmp_path, capsys, argv, message):
     code, _, err = run(capsys, "render", PLANAR, *argv)
     assert code in (2, 3) and message in err
     assert not (tmp_path / "a.png").exists()
+
+
+def test_render_keyframes_with_pose_keyframes(tmp_path, capsys):
+    keys = tmp_path / "pick.yaml"
+    keys.write_text(
+        "armctl_keyframes: 1\narm: so101\nunits: {angle: deg}\n"
+        "joints: [shoulder_pan, shoulder_lift, elbow_flex, wrist_flex, wrist_roll]\n"
+        "keyframes:\n  - {name: a, q: [0, -20, 30, 10, 0]}\n"
+        "  - {name: above, pose: {xyz: [0.22, 0.0, 0.12]}}\n"
+        "  - {name: down, pose: {xyz: [0.2, 0.0, 0.05], rpy: [180, 0, 180]}}\n")
+    out = tmp_path / "pick.gif"
+    code, data, err = run(capsys, "render", "so101", "--keyframes", str(keys), "-o", str(out),
+                          "--fps", "4", "--size", "2", "--dpi", "40", "--json")
+    assert code == 0 and data["ok"] and out.is_file(), err
+    # the plan ends at the last (full pose) keyframe: FK of its joints is that pose
+    arm = load_arm("so101")
+    end = arm.fk(np.array(data["goal"]))
+    assert end[:3, 3] == pytest.approx([0.2, 0.0, 0.05], abs=1e-3)
+    assert end[:3, 2] == pytest.approx([0.0, 0.0, -1.0], abs=1e-3)  # tool z axis down
+    assert data["goal"][arm.joint_index("gripper")] == pytest.approx(0.0)
+    assert len(list(ImageSequence.Iterator(Image.open(out)))) == data["frames"]
