@@ -109,3 +109,9 @@ def test_fk_never_prints_negative_zero(capsys: pytest.CaptureFixture[str]) -> No
     assert "-0.000000" not in out and "-0.000" not in out
     code, out, _ = run(capsys, "fk", PLANAR, *map(str, q), "--json")
     assert "-0.0," not in out and "-0.0\n" not in out
+
+
+def test_negative_values_in_exponent_notation(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "fk", PLANAR, "-1e-3", "-2.5E-01", "0", "--json")
+    assert code == 0
+    np.testing.assert_allclose(json.loads(out)["q"], [-1e-3, -0.25, 0.0])
