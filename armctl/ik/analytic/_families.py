@@ -10,6 +10,8 @@ Continua take the matching entry of ``ref`` as their representative and set ``si
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
@@ -32,6 +34,8 @@ from armctl.ik.analytic._subproblems import (
 )
 
 _DEG = 1e-9  # below this a unit vector counts as lying on an axis
+_AXIS = 1e-5  # [rad] a tool axis or goal direction this close to a joint axis counts as on it
+_NEAR = 1e-3  # [rad] a goal direction this close to axis 1 also gets the continuum's candidates
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -245,20 +249,122 @@ def three_parallel(h: np.ndarray, o: np.ndarray, m: np.ndarray, goal: np.ndarray
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def _add_pairs(ca: float, sa: float, cb: float, sb: float, e: float, t: float, fixed_first: bool,
+               t1: np.ndarray, t5: np.ndarray, n: int) -> int:
+    """Append the solutions of ``ca cos t1 + sa sin t1 + cb cos t5 + sb sin t5 = e``.
+
+    One angle is fixed at ``t`` [rad] (``t1`` when ``fixed_first``, else ``t5``), the other
+    solved; the pairs go to ``t1``, ``t5`` from row ``n`` on. Returns the new count.
+    """
+    sol = np.empty(2)
+    if fixed_first:
+        k = lin_trig(cb, sb, e - ca * math.cos(t) - sa * math.sin(t), 1.0, sol)
+    else:
+        k = lin_trig(ca, sa, e - cb * math.cos(t) - sb * math.sin(t), 1.0, sol)
+    for j in range(max(k, 0)):
+        t1[n] = t if fixed_first else sol[j]
+        t5[n] = sol[j] if fixed_first else t
+        n += 1
+    return n
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def _direction_pairs(h: np.ndarray, o: np.ndarray, p: np.ndarray, p5: np.ndarray,
+                     e: np.ndarray, e5: np.ndarray, ref1: float, ref5: float,
+                     t1: np.ndarray, t5: np.ndarray) -> tuple[int, bool]:
+    """``q1`` and ``q5`` candidates of the 5R direction family, including its special goals.
+
+    The two equations of :func:`_parallel_pair` are solved jointly; then, when one of the
+    direction equation's coefficient rows (nearly) vanishes, it is also solved decoupled, which
+    stays exact where the joint solution is ill-conditioned:
+
+    * tool axis along axis 5 (the roll only spins the tool axis): the direction alone gives
+      ``q1`` (the azimuth of its part across ``h1``) and the position equation ``q5``;
+    * direction along axis 1: the direction gives ``q5`` and the position ``q1``;
+    * both (the SO-101 pointing straight down or up): ``q1`` turns the tool axis about
+      itself, so ``q1`` and ``q5`` together only have to meet the position equation: a
+      continuum. Its representatives are ``q1 = ref1``, ``q5 = ref5`` and the two ``q5`` that
+      turn the tool point's offset from axis 5 into the arm's plane, each with the other angle
+      from the position equation, and the result is flagged singular.
+
+    A direction within :data:`_NEAR` of axis 1 gets the continuum's candidates as well: on a
+    nearly idealised chain the exact solutions of such a goal lie near the continuum. Extra
+    candidates cost a polish each; the exact forward kinematics keeps the true ones only.
+
+    Args:
+        h: ``(>=5, 3)`` axes (``h[1]`` the common direction of axes 2-4).
+        o: ``(>=5, 3)`` points on the axes [m].
+        p: The tool point's goal relative to ``o1`` [m].
+        p5: The tool point relative to ``o5`` at the zero configuration [m].
+        e: The goal direction (unit, base frame).
+        e5: The tool axis at the zero configuration (unit, base frame).
+        ref1: Representative ``q1`` for a continuum [rad].
+        ref5: Representative ``q5`` for a continuum [rad].
+        t1: ``(>=20,)`` receives the ``q1`` candidates [rad].
+        t5: ``(>=20,)`` receives the matching ``q5`` [rad].
+
+    Returns:
+        ``(count, singular)``.
+    """
+    h1, h2, h5 = h[0], h[1], h[4]
+    n, singular = _parallel_pair(h, o, p, p5, e, e5, ref1, ref5, t1, t5)
+    lscale = norm(p) + norm(p5) + norm(o[4] - o[0]) + 1e-300
+    k = 1.0 / lscale
+    cca, ssa, csa = trig_coeffs(h2, h1, p)
+    ccb, ssb, csb = trig_coeffs(h2, h5, p5)
+    ccc, ssc, csc = trig_coeffs(h2, h1, e)
+    ccd, ssd, csd = trig_coeffs(h2, h5, e5)
+    # position row: ka . [c1, s1] + kb . [c5, s5] = kd (dimensionless)
+    ka0, ka1, kb0, kb1 = cca * k, -ssa * k, -ccb * k, -ssb * k
+    kd = (dot(h2, o[4] - o[0]) - csa + csb) * k
+    roll_only = norm(cross(h5, e5)) <= _AXIS  # axis 5 only spins the tool axis
+    along = norm(cross(h1, e))  # how far the direction is from axis 1 [rad]
+    if roll_only and along > 1e-11:
+        # h2 . R1^T e = h2 . R5 e5, the right side (nearly) constant: q1 from the direction
+        sol = np.empty(2)
+        rhs = csd + ccd * math.cos(ref5) + ssd * math.sin(ref5) - csc
+        r = math.hypot(ccc, ssc)
+        if abs(rhs) > r:  # noise of a nearly idealised chain beyond a tiny across part
+            rhs = math.copysign(r, rhs)
+        k1 = lin_trig(ccc, -ssc, rhs, 1.0, sol)
+        for i in range(max(k1, 0)):
+            n = _add_pairs(ka0, ka1, kb0, kb1, kd, sol[i], True, t1, t5, n)
+    if not roll_only and along <= _NEAR:
+        # h2 . R1^T e (nearly) constant: q5 from the direction, q1 from the position
+        sol = np.empty(2)
+        k5 = lin_trig(-ccd, -ssd, csd - csc - ccc * math.cos(ref1) + ssc * math.sin(ref1),
+                      1.0, sol)
+        for i in range(max(k5, 0)):
+            n = _add_pairs(ka0, ka1, kb0, kb1, kd, sol[i], False, t1, t5, n)
+    if roll_only and along <= _NEAR:
+        n = _add_pairs(ka0, ka1, kb0, kb1, kd, ref1, True, t1, t5, n)
+        n = _add_pairs(ka0, ka1, kb0, kb1, kd, ref5, False, t1, t5, n)
+        # and the rolls that turn the tool point's offset into the arm's plane (the farthest
+        # and nearest reach: near the workspace boundary the continuum is a short arc there)
+        sol = np.empty(2)
+        for i in range(max(lin_trig(ccb, ssb, -csb, lscale, sol), 0)):
+            n = _add_pairs(ka0, ka1, kb0, kb1, kd, sol[i], False, t1, t5, n)
+        if along <= _AXIS:
+            singular = True
+    return n, singular
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def three_parallel_direction(h: np.ndarray, o: np.ndarray, m: np.ndarray, p_goal: np.ndarray,
                              d_goal: np.ndarray, axis: np.ndarray, ref: np.ndarray,
                              out: np.ndarray) -> tuple[int, bool]:
-    """5R chain with axes 2, 3, 4 parallel, goal position plus tool direction: up to 8.
+    """5R chain with axes 2, 3, 4 parallel, goal position plus tool direction.
 
-    Same reduction as :func:`three_parallel` with the tool direction in place of the sixth axis.
+    Same reduction as :func:`three_parallel` with the tool direction in place of the sixth axis
+    (up to 8 solutions); the special goals are in :func:`_direction_pairs`.
     """
     h1, h2, h5 = h[0], h[1], h[4]
     a0 = mv(m, axis)
     t0 = m[:3, 3]
     p = p_goal - o[0]
-    t1s = np.empty(4)
-    t5s = np.empty(4)
-    n2, singular = _parallel_pair(h, o, p, t0 - o[4], d_goal, a0, ref[0], ref[4], t1s, t5s)
+    t1s = np.empty(20)
+    t5s = np.empty(20)
+    n2, singular = _direction_pairs(h, o, p, t0 - o[4], d_goal, a0, ref[0], ref[4], t1s, t5s)
     n = 0
     for i in range(n2):
         r5 = rot(h5, t5s[i])
@@ -284,7 +390,9 @@ def yaw_three_parallel_direction(h: np.ndarray, o: np.ndarray, m: np.ndarray,
                                  ref: np.ndarray, out: np.ndarray) -> tuple[int, bool]:
     """4R chain, axes 2, 3, 4 parallel, goal position plus a tool direction: up to 4.
 
-    ``q1`` puts the goal in the arm's plane (subproblem 4 on the ``h2`` component); the direction
+    ``q1`` puts the goal in the arm's plane (subproblem 4 on the ``h2`` component; for a goal
+    point on axis 1 the direction's component does it instead, and with the direction along
+    axis 1 as well ``q1`` is free: ``ref[0]``, singular); the direction
     then fixes ``q2 + q3 + q4`` (subproblem 1; a direction out of the plane is not reachable and
     its candidates fail the final check), and the planar part gives ``q2, q3, q4``.
     """
@@ -297,7 +405,10 @@ def yaw_three_parallel_direction(h: np.ndarray, o: np.ndarray, m: np.ndarray,
     ls = norm(p) + norm(t0 - o[0]) + 1e-300
     k1 = lin_trig(cc, -ss, dot(h2, t0 - o[0]) - cst, ls, t1s)
     singular = False
-    if k1 == -1:
+    if k1 == -1:  # the goal point on axis 1: the direction's part across it gives q1
+        cc, ss, cst = trig_coeffs(h2, h1, d_goal)
+        k1 = lin_trig(cc, -ss, dot(h2, a0) - cst, 1.0, t1s)
+    if k1 == -1:  # and the direction along axis 1 too: q1 is free
         k1, t1s[0], singular = 1, ref[0], True
     n = 0
     for i in range(k1):

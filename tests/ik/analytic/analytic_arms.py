@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -83,3 +84,22 @@ def random_arm(rng: np.random.Generator, family: str) -> Arm:
     offsets = list(rng.uniform(-np.pi, np.pi, 6))
     return dh_arm(f"random-{family}", [tuple(r) for r in rows],  # type: ignore[misc]
                   offsets=offsets)
+
+
+def _snap(angle: float) -> float:
+    """``angle`` moved onto the nearest multiple of pi/2 when within 1e-4 rad of it."""
+    k = round(angle / (math.pi / 2))
+    return k * math.pi / 2 if abs(angle - k * math.pi / 2) < 1e-4 else angle
+
+
+def idealised(arm: Arm) -> Arm:
+    """The arm with the joint and frame angles that are rounded right angles (URDF ``1.5708``,
+    ``3.14159``) made exact, so its special axes are special to machine precision."""
+
+    def fix(origin: Origin) -> Origin:
+        return Origin(origin.xyz, tuple(_snap(a) for a in origin.rpy))  # type: ignore[arg-type]
+
+    spec = arm.spec
+    joints = tuple(dataclasses.replace(j, origin=fix(j.origin)) for j in spec.joints)
+    frames = tuple(dataclasses.replace(f, origin=fix(f.origin)) for f in spec.frames)
+    return Arm(dataclasses.replace(spec, name=spec.name + "-ideal", joints=joints, frames=frames))
