@@ -202,6 +202,34 @@ class KinematicModel:
         """``q`` clipped into the position limits."""
         return np.clip(self.as_q(q), self.lower, self.upper)
 
+    def wrap_toward(self, q: npt.ArrayLike, q_ref: npt.ArrayLike) -> Array:
+        """``q`` with rotary joints shifted by whole turns toward ``q_ref``, inside the limits.
+
+        Every frame keeps its pose (a revolute joint is 2 pi periodic); prismatic joints and
+        joints with no equivalent value closer to ``q_ref`` inside their limits are unchanged.
+
+        Args:
+            q: Joint vector ``(dof,)`` [rad]/[m].
+            q_ref: Reference joint vector ``(dof,)``.
+
+        Returns:
+            The shifted joint vector.
+        """
+        out = np.array(self.as_q(q))
+        ref = self.as_q(q_ref, "q_ref")
+        turn = 2.0 * np.pi
+        for i, jtype in enumerate(self.joint_types):
+            if jtype is JointType.PRISMATIC:
+                continue
+            k = np.round((ref[i] - out[i]) / turn)
+            cands = out[i] + turn * (k + np.arange(-1.0, 2.0))
+            cands = cands[(cands >= self.lower[i] - 1e-12) & (cands <= self.upper[i] + 1e-12)]
+            if cands.size:
+                best = cands[np.argmin(np.abs(cands - ref[i]))]
+                if abs(best - ref[i]) < abs(out[i] - ref[i]):
+                    out[i] = best
+        return out
+
     def sample(self, rng: np.random.Generator, n: int | None = None) -> Array:
         """Uniform random configurations inside the limits (continuous joints in [-pi, pi]).
 

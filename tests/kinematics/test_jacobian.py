@@ -70,3 +70,19 @@ def test_fk_jacobian_agrees_with_separate_calls() -> None:
     pose, jac = arm.fk_jacobian(q)
     np.testing.assert_array_equal(pose, arm.fk(q))
     np.testing.assert_array_equal(jac, arm.jacobian(q))
+
+
+def test_wrap_toward_keeps_the_pose_and_moves_toward_the_reference() -> None:
+    arm = armctl.load_arm(CONFIGS / "ur5e.yaml")  # +-2 pi on most joints
+    rng = np.random.default_rng(9)
+    for _ in range(50):
+        q = arm.sample(rng)
+        ref = arm.sample(rng)
+        w = arm.wrap_toward(q, ref)
+        np.testing.assert_allclose(arm.fk(w), arm.fk(q), atol=1e-12)
+        assert arm.within_limits(w)
+        assert np.all(np.abs(w - ref) <= np.abs(q - ref) + 1e-12)
+        turns = (w - q) / (2 * np.pi)
+        np.testing.assert_allclose(turns, np.round(turns), atol=1e-12)
+    q = np.array([5.9, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert arm.wrap_toward(q, np.zeros(6))[0] == pytest.approx(5.9 - 2 * np.pi)

@@ -187,6 +187,7 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         # every attempt broke a hard constraint, and the solver found them locally
         # infeasible from several starts
         status = IKStatus.INFEASIBLE
+    best_q = model.wrap_toward(best_q, q0)  # the same pose, rotary joints nearest the start
     return finish(model, goals, best_q, solver="nlp", status=status, iterations=iterations,
                   restarts=max(attempts - 1, 0), started=started, constraints=cons,
                   message=f"{problem.method.value}, {attempts} attempt(s)")
