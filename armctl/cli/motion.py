@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from armctl.cli._common import add_config, add_json, emit, fmt, parse_angles, table
+from armctl.config.schema import JointType
 from armctl.errors import ArmctlError, InputError
 
 if TYPE_CHECKING:
@@ -447,12 +448,14 @@ def _preview(robot: Robot, plan: MotionPlan, path: str) -> None:
     FigureCanvasAgg(fig)
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     for i, name in enumerate(robot.arm.joint_names):
-        ax1.plot(ts, np.degrees(q[:, i]), label=name)
-        ax2.plot(ts, np.degrees(qd[:, i]))
+        prismatic = robot.arm.joint_types[i] is JointType.PRISMATIC
+        scale = 1000.0 if prismatic else math.degrees(1.0)
+        ax1.plot(ts, scale * q[:, i], label=f"{name} [mm]" if prismatic else name)
+        ax2.plot(ts, scale * qd[:, i])
     for w in plan.waypoints:
         ax1.axvline(w.time, color="0.8", lw=0.8, zorder=0)
-    ax1.set_ylabel("position [deg]")
-    ax2.set_ylabel("velocity [deg/s]")
+    ax1.set_ylabel("position [deg; mm]")
+    ax2.set_ylabel("velocity [deg/s; mm/s]")
     ax2.set_xlabel("time [s]")
     ax1.legend(fontsize=7, ncol=3)
     ax1.set_title(plan.description)
