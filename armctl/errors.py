@@ -126,11 +126,14 @@ class UnknownNameError(InputError, KeyError):
         self.kind = kind
         self.name = name
         self.valid = tuple(valid)
-        close = difflib.get_close_matches(name, self.valid, n=1)
+        close = difflib.get_close_matches(name, self.valid, n=1) or _word_match(name, self.valid)
         text = f"unknown {kind} {name!r}"
         if context:
             text += f" in {context}"
-        text += f"; did you mean {close[0]!r}?" if close else "."
+        if close:
+            text += f"; did you mean {close[0]!r}?"
+        elif not text.endswith(("?", ".")):
+            text += "."
         shown = ", ".join(repr(v) for v in self.valid[:40])
         if len(self.valid) > 40:
             shown += ", ..."
@@ -140,6 +143,21 @@ class UnknownNameError(InputError, KeyError):
 
     def __str__(self) -> str:  # KeyError would otherwise quote the message
         return self.message
+
+
+def _word_match(name: str, valid: Sequence[str]) -> list[str]:
+    """A valid name with a ``_``/``-`` separated word close to ``name``, or nothing.
+
+    For example ``elbw`` -> ``elbow_flex``.
+    """
+    import difflib
+
+    def score(v: str) -> float:
+        words = v.replace("-", "_").split("_")
+        return max(difflib.SequenceMatcher(None, name.lower(), w.lower()).ratio() for w in words)
+
+    best = max(valid, key=score, default=None)
+    return [best] if best is not None and score(best) >= 0.75 else []
 
 
 class JointLimitError(InputError):

@@ -112,27 +112,8 @@ def _arm_bus(args: argparse.Namespace) -> ArmBus:
 
 
 def _unknown_joint(name: str, valid: tuple[str, ...], context: str) -> UnknownNameError:
-    """The error for a joint name that has no servo, suggesting the nearest valid name.
-
-    Besides whole-name similarity, a name close to one word of a valid name (``elbw`` for
-    ``elbow_flex``) is suggested.
-    """
-    import difflib
-
-    err = UnknownNameError("servo joint", name, valid, context)
-    if "did you mean" in err.message:
-        return err
-
-    def score(v: str) -> float:
-        parts = [v, *v.replace("-", "_").split("_")]
-        return max(difflib.SequenceMatcher(None, name.lower(), p.lower()).ratio() for p in parts)
-
-    best = max(valid, key=score, default=None)
-    if best is not None and score(best) >= 0.75:
-        head = f"unknown servo joint {name!r}" + (f" in {context}" if context else "")
-        err.message = err.message.replace(head, f"{head}; did you mean {best!r}?", 1)
-        err.args = (err.message,)
-    return err
+    """The error for a joint name that has no servo, suggesting the nearest valid name."""
+    return UnknownNameError("servo joint", name, valid, context)
 
 
 def _is_rotary(ab: ArmBus, name: str) -> bool:
