@@ -34,14 +34,20 @@ NJIT: dict[str, Any] = {"cache": True, "nogil": True, "error_model": "numpy"}
 POSITION, ORIENTATION, DIRECTION, POSE = 0, 1, 2, 3
 
 
-@nb.njit(**NJIT)
-def _rotation_error(gd: np.ndarray, pose: np.ndarray, out: np.ndarray, k: int, s: float) -> None:
-    """``out[k:k+3] = s * log(R_target R^T)`` (rotation vector, base frame) [rad]."""
-    d = np.empty((3, 3))
+@nb.njit(inline="always", **NJIT)
+def _relative_rotation(gd: np.ndarray, pose: np.ndarray, d: np.ndarray) -> None:
+    """``d = R_target @ R^T`` for the goal row ``gd`` and a frame pose."""
     for i in range(3):
         for j in range(3):
             d[i, j] = (gd[3 + 3 * i] * pose[j, 0] + gd[4 + 3 * i] * pose[j, 1]
                        + gd[5 + 3 * i] * pose[j, 2])
+
+
+@nb.njit(**NJIT)
+def _rotation_error(gd: np.ndarray, pose: np.ndarray, out: np.ndarray, k: int, s: float) -> None:
+    """``out[k:k+3] = s * log(R_target R^T)`` (rotation vector, base frame) [rad]."""
+    d = np.empty((3, 3))
+    _relative_rotation(gd, pose, d)
     v0 = d[2, 1] - d[1, 2]
     v1 = d[0, 2] - d[2, 0]
     v2 = d[1, 0] - d[0, 1]
@@ -84,10 +90,7 @@ def goal_error(t: int, gd: np.ndarray, pose: np.ndarray) -> tuple[float, float]:
         dp = math.sqrt(x * x + y * y + z * z)
     if t == ORIENTATION or t == POSE:
         d = np.empty((3, 3))
-        for i in range(3):
-            for j in range(3):
-                d[i, j] = (gd[3 + 3 * i] * pose[j, 0] + gd[4 + 3 * i] * pose[j, 1]
-                           + gd[5 + 3 * i] * pose[j, 2])
+        _relative_rotation(gd, pose, d)
         v0 = d[2, 1] - d[1, 2]
         v1 = d[0, 2] - d[2, 0]
         v2 = d[1, 0] - d[0, 1]
