@@ -10,8 +10,10 @@ Exit codes (also documented in ``docs/cli.md``):
 * 2: bad input: a config file, a command-line argument, a value outside its range.
 * 3: no solution: an IK goal that cannot be reached, a path that cannot be planned.
 * 4: hardware or bus failure: port, timeout, checksum, servo error bits.
-* 5: motion stopped for safety (tracking error, lost servo, user stop).
-* 130: interrupted by the user (Ctrl-C) before anything moved.
+* 5: a motion was stopped part-way (a fault: tracking error, lost servo, servo alarm; or a stop
+  signal during the motion: Ctrl-C, SIGTERM, SIGHUP); the arm holds where it stopped.
+* 130, 143, 129: interrupted by SIGINT (Ctrl-C), SIGTERM or SIGHUP while no motion was under
+  way (128 + the signal number); a signal after a stopped motion does not change its code 5.
 
 Subpackages define their specialised errors next to their code (for example
 ``armctl.servo.errors``), always as subclasses of the classes below.
@@ -169,17 +171,23 @@ class JointLimitError(InputError):
         lower: Lower limit in the same unit.
         upper: Upper limit in the same unit.
         context: What was being done, e.g. ``"goal of move-joints"``.
+        advice: Where the crossed limit comes from and how to fix it; the default advice is
+            for a limit of the arm config.
     """
 
-    def __init__(self, joint: str, value: float, lower: float, upper: float, context: str = ""):
+    def __init__(self, joint: str, value: float, lower: float, upper: float, context: str = "",
+                 advice: str | None = None):
         self.joint = joint
         self.value = value
         self.lower = lower
         self.upper = upper
+        self.details: dict[str, object] = {"joint": joint, "value": value, "lower": lower,
+                                           "upper": upper}
         what = f" ({context})" if context else ""
+        advice = advice or "Choose a value inside the limits or widen them in the arm config."
         super().__init__(
             f"joint {joint!r}: {value:.6g} is outside its limits [{lower:.6g}, {upper:.6g}]{what};"
-            " nothing was sent. Choose a value inside the limits or widen them in the arm config."
+            f" nothing was sent. {advice}"
         )
 
 

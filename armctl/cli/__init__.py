@@ -10,19 +10,27 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import pkgutil
 import re
+import signal
 import sys
 from collections.abc import Sequence
 from types import ModuleType
+from typing import TYPE_CHECKING
 
 from armctl import __version__
 from armctl.cli._common import print_error
 from armctl.errors import ArmctlError
 
+if TYPE_CHECKING:
+    from armctl.robot.stop import SignalGuard
+
 __all__ = ["build_parser", "main"]
 
-_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+#: A negative number, also ``-inf``/``-nan`` (values, refused later with a clear message).
+_NEGATIVE_NUMBER = re.compile(r"^-((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf(inity)?|nan)$",
+                              re.IGNORECASE)
 
 
 def _command_modules() -> list[ModuleType]:
@@ -40,7 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Control robot arms built from serial-bus smart servos. CONFIG is an arm "
         "YAML file, a URDF, or the name of a bundled arm (see 'armctl arms').",
         epilog="Exit codes: 0 ok, 1 internal error, 2 bad input, 3 no solution, 4 bus or "
-        "hardware error, 5 motion stopped for safety, 130 interrupted.",
+        "hardware error, 5 motion stopped for safety (a fault, or Ctrl-C/SIGTERM/SIGHUP during "
+        "a motion), 130/143/129 interrupted by SIGINT/SIGTERM/SIGHUP while no motion was under "
+        "way.",
     )
     parser.add_argument("--version", action="version", version=f"armctl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -75,8 +85,32 @@ def _first_run_notice(command: str | None) -> None:
           file=sys.stderr, flush=True)
 
 
+class _StderrLogHandler(logging.Handler):
+    """Library warnings as ``armctl: message`` lines on the present ``sys.stderr``."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            stream = sys.stderr
+            clear = "\r\x1b[K" if stream.isatty() else ""  # over a progress bar
+            stream.write(f"{clear}armctl: {record.getMessage()}\n")
+            stream.flush()
+        except Exception:  # a log line must never end a command
+            self.handleError(record)
+
+
+def _setup_logging() -> None:
+    """Show the library's warnings (``armctl.*`` loggers) on stderr, once per process."""
+    log = logging.getLogger("armctl")
+    if not any(isinstance(h, _StderrLogHandler) for h in log.handlers):
+        log.addHandler(_StderrLogHandler(logging.WARNING))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line.
+
+    Commands that move the arm set ``stop_signals``: for them SIGINT, SIGTERM and SIGHUP are
+    guarded for the whole command (:class:`armctl.robot.SignalGuard`), so that a signal after a
+    stopped motion cannot replace its exit code.
 
     Args:
         argv: Arguments without the program name; ``sys.argv[1:]`` when ``None``.
@@ -92,14 +126,60 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    _setup_logging()
     _first_run_notice(args.command)
+    if not getattr(args, "stop_signals", False):
+        return _dispatch(args, None)
+    from armctl.robot.stop import SignalGuard, signal_name
+
+    guard = SignalGuard()
+    args.signal_guard = guard
+    with guard.installed():
+        code = _dispatch(args, guard)
+        if guard.signum is not None:
+            name = signal_name(guard.signum)
+            if code == 0:  # the motion had finished; the exit policy was skipped
+                print(f"armctl: {name} after the motion had finished: the arm holds where it "
+                      "is", file=sys.stderr)
+                code = 128 + guard.signum
+            else:
+                print(f"armctl: {name} received while finishing: ignored (the arm holds)",
+                      file=sys.stderr)
+    return code
+
+
+def _dispatch(args: argparse.Namespace, guard: SignalGuard | None) -> int:
+    """Run the command; errors become their exit codes, signals 128 + their number."""
     try:
-        return int(args.func(args) or 0)
+        try:
+            return int(args.func(args) or 0)
+        finally:
+            if guard is not None:
+                guard.defer()  # from here on, signals are only recorded
     except ArmctlError as exc:
         print_error(args, exc, exc.exit_code)
         return exc.exit_code
-    except KeyboardInterrupt:
-        print("armctl: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # SIGINT; SIGTERM and SIGHUP for motion commands
+        signum = int(getattr(exc, "signum", signal.SIGINT))
+        name = signal.Signals(signum).name
+        _print_interrupt(args, name, 128 + signum, guard is not None)
+        return 128 + signum
     except BrokenPipeError:  # e.g. piped into `head`
         return 0
+
+
+def _print_interrupt(args: argparse.Namespace, name: str, code: int, motion: bool) -> None:
+    """Say that the command was interrupted (JSON too with --json).
+
+    ``motion``: a command that moves the arm, interrupted before its motion started.
+    """
+    message = f"interrupted by {name}" + ("; nothing moved" if motion else "")
+    if getattr(args, "json", False):
+        import json
+
+        from armctl.cli._common import JSON_SCHEMA
+
+        print(json.dumps({"schema": JSON_SCHEMA, "command": getattr(args, "command", None),
+                          "ok": False, "error": {"type": "Interrupted", "message": message,
+                                                 "signal": name, "exit_code": code}}, indent=2))
+    print(f"armctl: {message}", file=sys.stderr)

@@ -19,15 +19,94 @@ if TYPE_CHECKING:
 __all__ = [
     "add_config",
     "add_json",
+    "check_rpy",
     "emit",
+    "finite",
     "fmt",
+    "is_keyframe_file",
     "load_arm_arg",
+    "nonnegative",
+    "nonnegative_int",
     "parse_angles",
+    "positive",
+    "positive_int",
     "print_error",
     "table",
 ]
 
 JSON_SCHEMA = "armctl/1"
+
+#: A rotary value beyond this [rad] without ``--deg`` can only be meant in degrees.
+_FULL_TURN = 2.0 * math.pi
+
+
+# ---- argparse types: refused values are usage errors (exit code 2), never NaN or inf ----------
+def finite(text: str) -> float:
+    """A finite number (an argparse type).
+
+    Raises:
+        argparse.ArgumentTypeError: For text that is not a number, NaN or inf.
+    """
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number (NaN and infinity "
+                                         "are not accepted)")
+    return value
+
+
+def positive(text: str) -> float:
+    """A finite number greater than zero (an argparse type)."""
+    value = finite(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be greater than zero")
+    return value
+
+
+def nonnegative(text: str) -> float:
+    """A finite number, zero or more (an argparse type)."""
+    value = finite(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must not be negative")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """A whole number, 1 or more (an argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be 1 or more")
+    return value
+
+
+def nonnegative_int(text: str) -> int:
+    """A whole number, 0 or more (an argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must not be negative")
+    return value
+
+
+def check_rpy(values: Sequence[float] | None, deg: bool, option: str = "--rpy") -> None:
+    """Refuse roll-pitch-yaw angles that can only be degrees when ``--deg`` is not given.
+
+    Raises:
+        InputError: For a component beyond 2 pi (e.g. 180) without ``--deg``.
+    """
+    if values is None or deg:
+        return
+    for name, v in zip(("roll", "pitch", "yaw"), values, strict=False):
+        if abs(v) > _FULL_TURN + 1e-9:
+            raise InputError(f"{option}: {name} {v:g} is more than a full turn in radians "
+                             f"(2 pi = 6.283), so it can only be degrees: did you mean --deg?")
 
 
 def add_config(parser: argparse.ArgumentParser) -> None:
@@ -43,10 +122,41 @@ def add_json(parser: argparse.ArgumentParser) -> None:
 
 
 def load_arm_arg(args: argparse.Namespace) -> Arm:
-    """Load the arm named by ``args.config`` (and ``args.tip`` when the command has it)."""
-    from armctl.arm import load_arm
+    """Load the arm named by ``args.config`` (and ``args.tip`` when the command has it).
 
-    return load_arm(args.config, getattr(args, "tip", None))
+    Raises:
+        ConfigError: As :func:`armctl.arm.load_arm`.
+        InputError: For a keyframe file given where the arm config belongs.
+    """
+    from armctl.arm import load_arm
+    from armctl.errors import ConfigError
+
+    try:
+        return load_arm(args.config, getattr(args, "tip", None))
+    except ConfigError as exc:
+        if is_keyframe_file(args.config):
+            raise InputError(f"{args.config} is a keyframe file, not an arm config: give the arm "
+                             "config (a YAML or URDF file, or a bundled arm name such as so101; "
+                             "see 'armctl arms') as CONFIG") from exc
+        raise
+
+
+def is_keyframe_file(path: str) -> bool:
+    """Whether ``path`` is a YAML file with a top-level ``armctl_keyframes:`` key.
+
+    A plain text scan of the file's start: nothing is parsed, so a hostile file costs nothing.
+    """
+    from pathlib import Path
+
+    p = Path(path)
+    try:
+        if p.suffix.lower() not in (".yaml", ".yml") or not p.is_file():
+            return False
+        with p.open(encoding="utf-8", errors="replace") as fh:
+            head = fh.read(65536)
+    except OSError:
+        return False
+    return any(line.startswith("armctl_keyframes:") for line in head.splitlines())
 
 
 def _jsonable(value: Any) -> Any:
@@ -91,8 +201,12 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
                  what: str = "joint values") -> np.ndarray:
     """Joint values from the command line, converted to SI (degrees only for rotary joints).
 
+    Rotary values are radians, or degrees with ``--deg``; prismatic values are metres.
+
     Raises:
-        InputError: For a wrong count or a value that is not a number.
+        InputError: For a wrong count, a value that is not a finite number, a rotary value
+            beyond a full turn (2 pi) without ``--deg`` that the joint cannot take (it can only
+            be degrees), or a prismatic value that can only be millimetres.
     """
     from armctl.config.schema import JointType
 
@@ -101,13 +215,30 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
                          f"got {len(values)}")
     out = np.empty(arm.dof)
     for i, raw in enumerate(values):
+        name = arm.joint_names[i]
         try:
-            out[i] = float(raw)
+            v = float(raw)
         except ValueError:
+            raise InputError(f"{what}: {raw!r} (joint {name!r}) is not a number") from None
+        if not math.isfinite(v):
+            raise InputError(f"{what}: {raw!r} (joint {name!r}) is not a finite number (NaN "
+                             "and infinity are not accepted)")
+        lo, hi = float(arm.lower[i]), float(arm.upper[i])
+        if arm.joint_types[i] is JointType.PRISMATIC:
+            if not lo - 1e-9 <= v <= hi + 1e-9 and abs(v) >= 1.0 and lo <= v / 1000 <= hi:
+                raise InputError(
+                    f"{what}: {raw} (joint {name!r}) is outside its limits [{lo:g}, {hi:g}] m; "
+                    f"prismatic values are in metres: did you mean {v / 1000:g} m ({v:g} mm)?")
+        elif deg:
+            v = math.radians(v)
+        elif abs(v) > _FULL_TURN + 1e-9 and not lo <= v <= hi:
+            also = "" if lo <= math.radians(v) <= hi else (
+                f"; {v:g} deg is outside its limits [{math.degrees(lo):.6g}, "
+                f"{math.degrees(hi):.6g}] deg too")
             raise InputError(
-                f"{what}: {raw!r} (joint {arm.joint_names[i]!r}) is not a number") from None
-        if deg and arm.joint_types[i] is not JointType.PRISMATIC:
-            out[i] = math.radians(out[i])
+                f"{what}: {v:g} rad (joint {name!r}) is more than a full turn (2 pi = 6.283 "
+                f"rad), so it can only be degrees: did you mean --deg?{also}")
+        out[i] = v
     return out
 
 

@@ -9,12 +9,13 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from armctl.cli._common import add_config, add_json, emit, fmt, table
+from armctl.cli._common import add_config, add_json, emit, fmt, positive, table
 from armctl.errors import BusError, InputError, UnknownNameError
 
 if TYPE_CHECKING:
     from armctl.config.schema import ArmSpec
     from armctl.servo import ArmBus, JointState
+    from armctl.servo.effective_limits import EffectiveLimits
 
 ORDER = 50
 
@@ -43,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_config(p)
     _add_bus_args(p)
     p.add_argument("--once", action="store_true", help="print one reading and exit")
-    p.add_argument("--interval", type=float, default=0.2, help="refresh period [s]")
+    p.add_argument("--interval", type=positive, default=0.2, help="refresh period [s]")
     p.add_argument("--deg", action="store_true", help="show rotary joints in degrees")
     add_json(p)
     p.set_defaults(func=cmd_status)
@@ -52,6 +53,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_config(p)
     p.add_argument("state", choices=["on", "off"])
     p.add_argument("joints", nargs="*", metavar="JOINT", help="joints (default: all)")
+    p.add_argument("--clear-alarms", action="store_true",
+                   help="first reboot the servos that report a hardware alarm (overload, "
+                        "overheating...): clears it once the cause is removed")
     _add_bus_args(p)
     add_json(p)
     p.set_defaults(func=cmd_torque)
@@ -231,20 +235,54 @@ def _status_rows(ab: ArmBus, st: JointState, deg: bool) -> tuple[list[list[str]]
     return rows, data
 
 
+def _limit_rows(eff: EffectiveLimits, deg: bool) -> list[list[str]]:
+    """One row per joint: config, calibration, servo register and effective limits."""
+    from armctl.config.schema import JointType
+
+    rows = []
+    for j in eff.joints:
+        prismatic = j.joint_type is JointType.PRISMATIC
+        k = math.degrees(1.0) if deg and not prismatic else 1.0
+        digits = 5 if prismatic else 3 if deg else 4
+
+        def span(r: tuple[float, float] | None, k: float = k, d: int = digits) -> str:
+            return "-" if r is None else f"{fmt(r[0] * k, d)} .. {fmt(r[1] * k, d)}"
+
+        if j.register_ticks is None:
+            regs = "-"
+        else:
+            lo, hi = j.register_ticks
+            regs = ("no limit" if j.register is None else span(j.register)) + \
+                f" ({lo}..{hi} ticks)"
+        rows.append([j.name, "-" if j.servo_id is None else str(j.servo_id), span(j.config),
+                     span(j.calibration), regs, span((j.lower.value, j.upper.value)),
+                     f"{j.lower.source.value} / {j.upper.source.value}"])
+    return rows
+
+
 def cmd_status(args: argparse.Namespace) -> int:
     """Show servo status, once or live."""
+    from armctl.servo.effective_limits import limits_of_bus
+
     ab = _arm_bus(args)
     unit = "deg" if args.deg else "rad|m"
     headers = ["joint", "id", f"angle [{unit}]", "ticks", "temp [C]", "volt [V]", "load [%]",
                "errors"]
+    limit_headers = ["joint", "id", f"config [{unit}]", "calibration", "servo registers",
+                     "effective", "bounded by (lower / upper)"]
     with ab:
+        eff = limits_of_bus(_spec(args), ab)
+        limits = (f"limits [{unit}] (effective: inside all three, {eff.margin_ticks} servo "
+                  "ticks inside the measured ones)\n"
+                  + table(limit_headers, _limit_rows(eff, args.deg)))
         while True:
             st = ab.read_state()
             rows, data = _status_rows(ab, st, args.deg)
-            text = table(headers, rows, [1, 2, 3, 4, 5, 6])
+            text = table(headers, rows, [1, 2, 3, 4, 5, 6]) + "\n\n" + limits
             if args.once or args.json:
                 emit(args, {"arm": ab.arm_name, "port": ab.spec.port, "joints": data,
-                            "calibration": ab.calibration.hash if ab.calibration else None},
+                            "calibration": ab.calibration.hash if ab.calibration else None,
+                            "limits": eff.as_dict()},
                      text)
                 return 0
             sys.stdout.write("\x1b[H\x1b[2J" + f"{ab.arm_name} on {ab.spec.port} "
@@ -265,29 +303,29 @@ def cmd_torque(args: argparse.Namespace) -> int:
         if name not in ab.joint_names:
             raise _unknown_joint(name, ab.joint_names, f"arm {ab.arm_name!r}")
     with ab:
+        ab.read_state()  # learns which servos report an alarm: torque on is refused for them
+        cleared = ab.clear_alarms(joints) if args.clear_alarms else []
+        if cleared:
+            ab.read_state()  # an alarm whose cause remains comes back at once
         ab.set_torque(on, joints)
         state = ab.torque()
-    emit(args, {"torque": {n: state[n] for n in joints}},
-         f"torque {args.state}: {', '.join(joints)}")
+    text = f"torque {args.state}: {', '.join(joints)}"
+    if cleared:
+        text = f"alarms cleared (servo rebooted): {', '.join(cleared)}\n" + text
+    emit(args, {"torque": {n: state[n] for n in joints}, "alarms_cleared": cleared}, text)
     return 0
 
 
 # ---- standalone simulator -----------------------------------------------------------------------
-_SIM_HELP = """commands:
-  get                       joint values and ticks
-  set JOINT VALUE [deg]     hand-guide a torque-off joint (rad or m; 'deg' for degrees)
-  ticks ID TICKS            hand-guide a torque-off servo by id, in ticks
-  fault KIND ID [COUNT]     inject a fault (dropped_reply, corrupted_reply, truncated_reply,
-                            late_reply, missing_servo, hardware_alarm, wrong_model,
-                            lockup_after_overload)
-  clear                     remove all faults
-  quit                      stop the simulator"""
-
-
 def cmd_sim(args: argparse.Namespace) -> int:
-    """Run the simulated bus standalone until 'quit', end of input or Ctrl-C."""
+    """Run the simulated bus standalone until 'quit', end of input or Ctrl-C.
+
+    Every stdin line goes to :class:`~armctl.servo.sim.console.SimConsole`; a bad line prints
+    an error line and the simulator (and its pty) carries on.
+    """
     from armctl.servo import SimulatedBus
     from armctl.servo.calibration import Calibration, calibration_path
+    from armctl.servo.sim.console import SimConsole
 
     spec = _spec(args)
     assert spec.bus is not None  # _spec checked it  # mypy.
@@ -304,6 +342,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
              f"{spec.bus.baudrate} baud (servo ids "
              f"{', '.join(str(s.id) for s in sim.servos)}); type 'help' for commands")
         sys.stdout.flush()
+        console = SimConsole(sim)
         while True:
             try:
                 line = sys.stdin.readline()
@@ -311,57 +350,16 @@ def cmd_sim(args: argparse.Namespace) -> int:
                 return 0
             if not line:
                 return 0
-            words = line.split()
-            if not words:
-                continue
             try:
-                if _sim_command(sim, words):
-                    return 0
-            except (InputError, ValueError, KeyError) as exc:
-                print(f"error: {exc}")
+                reply = console.execute(line)
+            except Exception as exc:  # a bug must not take the pty away from its clients
+                reply = None
+                print(f"error: {type(exc).__name__}: {exc} (the simulator goes on)")
+            if reply is not None and reply.text:
+                print(reply.text)
             sys.stdout.flush()
-
-
-def _sim_command(sim: Any, words: list[str]) -> bool:
-    from armctl.servo.sim import faults as F
-
-    cmd = words[0].lower()
-    if cmd in ("quit", "exit"):
-        return True
-    if cmd == "help":
-        print(_SIM_HELP)
-    elif cmd == "get":
-        ticks = sim.positions
-        if sim.mapping is not None:
-            for j in sim.mapping.joints:
-                print(f"{j.name} (id {j.servo_id}): {j.to_joint(ticks[j.servo_id]):.4f} "
-                      f"[{ticks[j.servo_id]} ticks]")
-        else:
-            print(ticks)
-    elif cmd == "set" and len(words) in (3, 4):
-        value = float(words[2])
-        if len(words) == 4 and words[3] == "deg":
-            value = math.radians(value)
-        sim.set_joint(words[1], value)
-        print("ok")
-    elif cmd == "ticks" and len(words) == 3:
-        sim.set_joint(int(words[1]), int(words[2]))
-        print("ok")
-    elif cmd == "fault" and len(words) in (3, 4):
-        cls = F.FAULT_KINDS.get(words[1])
-        if cls is None or cls is F.LatencySpike:
-            raise InputError(f"unknown fault {words[1]!r}; see 'help'")
-        kw: dict[str, Any] = {"servo_id": int(words[2])}
-        if len(words) == 4:
-            kw["count"] = int(words[3])
-        sim.inject(cls(**kw))
-        print("ok")
-    elif cmd == "clear":
-        sim.clear_faults()
-        print("ok")
-    else:
-        print(f"unknown command {' '.join(words)!r}\n{_SIM_HELP}")
-    return False
+            if reply is not None and reply.quit:
+                return 0
 
 
 # ---- calibration ---------------------------------------------------------------------------------

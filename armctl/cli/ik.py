@@ -7,7 +7,20 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from armctl.cli._common import add_config, add_json, emit, fmt, load_arm_arg, parse_angles, table
+from armctl.cli._common import (
+    add_config,
+    add_json,
+    check_rpy,
+    emit,
+    finite,
+    fmt,
+    load_arm_arg,
+    nonnegative_int,
+    parse_angles,
+    positive,
+    positive_int,
+    table,
+)
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
@@ -66,27 +79,32 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_constraint_arguments(p)
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
     p.add_argument("--all", action="store_true",
-                   help="with --solver analytic: list every solution (nearest to --from first), "
-                        "each with its residual and whether it is inside the joint limits")
+                   help="with --solver analytic: list every distinct solution (nearest to --from "
+                        "first), each with its residual and whether it is inside the joint "
+                        "limits; a solution is shown by its variant inside the limits nearest to "
+                        "--from")
+    p.add_argument("--variants", action="store_true",
+                   help="with --all: also list the 2 pi variants of each solution (joint values "
+                        "a full turn apart that fit in the limits)")
     add_json(p)
     p.set_defaults(func=cmd_ik)
 
 
 def add_goal_arguments(p: argparse.ArgumentParser) -> None:
     """Arguments that describe the goal."""
-    p.add_argument("--xyz", nargs=3, type=float, metavar=("X", "Y", "Z"),
+    p.add_argument("--xyz", nargs=3, type=finite, metavar=("X", "Y", "Z"),
                    help="target position in the base frame [m]")
     rot = p.add_mutually_exclusive_group()
-    rot.add_argument("--rpy", nargs=3, type=float, metavar=("R", "P", "Y"),
+    rot.add_argument("--rpy", nargs=3, type=finite, metavar=("R", "P", "Y"),
                      help="target roll, pitch, yaw (URDF convention; radians, degrees with --deg)")
-    rot.add_argument("--quat", nargs=4, type=float, metavar=("W", "X", "Y", "Z"),
+    rot.add_argument("--quat", nargs=4, type=finite, metavar=("W", "X", "Y", "Z"),
                      help="target orientation as a quaternion (normalised)")
     rot.add_argument("--direction", nargs=4, metavar=("AXIS", "DX", "DY", "DZ"),
                      help="point the frame's AXIS (x, y or z) along (DX, DY, DZ): a 5-DOF goal")
     p.add_argument("--frame", help="the frame that must reach the goal (default: the tool)")
-    p.add_argument("--tol-pos", type=float, default=1e-5, metavar="M",
+    p.add_argument("--tol-pos", type=positive, default=1e-5, metavar="M",
                    help="position tolerance [m] (default 1e-5)")
-    p.add_argument("--tol-rot", type=float, default=1e-4, metavar="RAD",
+    p.add_argument("--tol-rot", type=positive, default=1e-4, metavar="RAD",
                    help="rotation tolerance [rad] (default 1e-4)")
 
 
@@ -97,24 +115,25 @@ def add_solver_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--from", dest="q0", nargs="+", metavar="Q",
                    help="start configuration (default: the middle of the joint ranges)")
     p.add_argument("--deg", action="store_true", help="angles (--from, --rpy, output) in degrees")
-    p.add_argument("--max-iterations", type=int, default=100, help="iterations per start")
-    p.add_argument("--restarts", type=int, default=50, help="random restarts (default 50)")
-    p.add_argument("--time-limit", type=float, default=0.5, metavar="S",
+    p.add_argument("--max-iterations", type=positive_int, default=100, help="iterations per start")
+    p.add_argument("--restarts", type=nonnegative_int, default=50,
+                   help="random restarts (default 50)")
+    p.add_argument("--time-limit", type=positive, default=0.5, metavar="S",
                    help="time budget [s] (default 0.5)")
     p.add_argument("--seed", type=int, default=0, help="random seed of the restarts")
 
 
 def add_constraint_arguments(p: argparse.ArgumentParser) -> None:
     """Constraints and goals files for the ``nlp`` solver (chosen automatically with them)."""
-    p.add_argument("--plane", nargs=6, type=float, action="append",
+    p.add_argument("--plane", nargs=6, type=finite, action="append",
                    metavar=("PX", "PY", "PZ", "NX", "NY", "NZ"),
                    help="hard constraint: the goal frame stays on the plane through PX PY PZ "
                         "with normal NX NY NZ [m] (repeatable)")
-    p.add_argument("--halfspace", nargs=6, type=float, action="append",
+    p.add_argument("--halfspace", nargs=6, type=finite, action="append",
                    metavar=("PX", "PY", "PZ", "NX", "NY", "NZ"),
                    help="hard constraint: the goal frame stays on the side of the plane PX PY "
                         "PZ that the normal NX NY NZ points to (repeatable)")
-    p.add_argument("--keep-out", nargs="+", type=float, action="append", metavar="V",
+    p.add_argument("--keep-out", nargs="+", type=finite, action="append", metavar="V",
                    help="no link enters the sphere CX CY CZ R, or the box XMIN YMIN ZMIN XMAX "
                         "YMAX ZMAX [m] (repeatable)")
     p.add_argument("--goals", dest="goals_file", metavar="FILE",
@@ -154,6 +173,7 @@ def build_goals(args: argparse.Namespace, arm: Arm) -> tuple[Goal, ...]:
         arm.frame_index(frame)
     tol = Tolerance(args.tol_pos, args.tol_rot)
     rot = None
+    check_rpy(args.rpy, args.deg)
     if args.rpy is not None:
         rpy = np.radians(args.rpy) if args.deg else np.array(args.rpy)
         rot = rpy_to_matrix(rpy)
@@ -176,6 +196,10 @@ def build_goals(args: argparse.Namespace, arm: Arm) -> tuple[Goal, ...]:
             vec = [float(v) for v in raw]
         except ValueError:
             raise InputError(f"--direction: DX DY DZ must be numbers, got {raw}") from None
+        if not all(math.isfinite(v) for v in vec):
+            raise InputError(f"--direction: DX DY DZ must be finite numbers, got {raw}")
+        if not float(np.linalg.norm(vec)) > 1e-9:
+            raise InputError("--direction: the direction DX DY DZ must not be zero")
         return (DirectionGoal(np.array(args.xyz), np.array(vec), np.array(axes[axis_name.lower()]),
                               frame=frame, tolerance=tol),)
     if rot is not None:
@@ -219,6 +243,9 @@ def cmd_ik(args: argparse.Namespace) -> int:
     asked_pose = args.xyz is not None and (args.rpy is not None or args.quat is not None)
     if asked_pose and not args.force_pose:
         check_pose_dof(arm, req.goals[-1:])  # the command line's goal comes last
+    if args.variants and not args.all:
+        raise InputError("--variants lists the 2 pi variants of the solutions of --all: give "
+                         "--all too")
     if args.all:
         return _cmd_all(args, arm, req)
     _warm_up(arm, req)
@@ -366,25 +393,34 @@ def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[st
 
 def _cmd_all(args: argparse.Namespace, arm: Arm, req: IKRequest) -> int:
     """``--all``: every closed-form solution, nearest to the start first."""
+    from armctl.config.schema import JointType
     from armctl.errors import NoSolutionError
+    from armctl.ik.analytic import acceptance, ik_all
 
     if req.solver != "analytic":
         raise InputError("--all lists the closed-form solutions; use it with --solver analytic")
     if len(req.goals) != 1 or req.constraints:
         raise InputError("--all takes exactly one goal and no constraints")
-    sols = arm.ik_all(req.goals[0], q_ref=req.q0)
+    goal = req.goals[0]
+    every = ik_all(arm, goal, q_ref=req.q0, tol=acceptance(goal))  # as the single answer
+    distinct = every.distinct([t is not JointType.PRISMATIC for t in arm.joint_types])
+    sols = every if args.variants else distinct
     k = 180.0 / math.pi if args.deg else 1.0
     rows = [[str(i + 1), "yes" if ok else "no", *(fmt(v * k, 4) for v in q), f"{ep:.1e}",
              f"{er:.1e}"]
             for i, (q, ok, ep, er) in enumerate(zip(sols.q, sols.within_limits,
                                                      sols.position_error, sols.rotation_error,
                                                      strict=True))]
-    head = (f"{len(sols)} solutions ({int(sols.within_limits.sum())} inside the limits); "
-            f"family: {sols.family}"
+    variants = ("" if len(every) == len(distinct) else
+                f", {len(every)} rows with their 2 pi variants" if args.variants else
+                f"; --variants lists their {len(every)} rows with the 2 pi variants")
+    head = (f"{len(distinct)} distinct solutions ({int(distinct.within_limits.sum())} inside "
+            f"the limits){variants}; family: {sols.family}"
             + (f"; held at --from: {', '.join(sols.free)}" if sols.free else "")
             + ("; SINGULAR goal: a continuum, representatives shown" if sols.singular else ""))
     data = {"family": sols.family, "singular": sols.singular, "free": list(sols.free),
-            "count": len(sols), "solutions": [
+            "count": len(sols), "distinct": len(distinct), "with_variants": len(every),
+            "variants_listed": bool(args.variants), "solutions": [
                 {"q": q, "joints": arm.values_by_name(q), "within_limits": bool(ok),
                  "position_error": float(ep), "rotation_error": float(er)}
                 for q, ok, ep, er in zip(sols.q, sols.within_limits, sols.position_error,

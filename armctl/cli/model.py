@@ -73,17 +73,26 @@ def _angle_unit(is_prismatic: bool, deg: bool) -> tuple[str, float]:
 def cmd_info(args: argparse.Namespace) -> int:
     """Show joints, limits, frames and the tree."""
     from armctl.config.schema import JointType
+    from armctl.servo.calibration import load_calibration
+    from armctl.servo.effective_limits import effective_limits
 
     arm = load_arm_arg(args)
     spec = arm.spec
+    cal = load_calibration(spec)
+    eff = effective_limits(spec, cal) if cal is not None else None
     rows = []
     joints: list[dict[str, Any]] = []
+    by_name = {j.name: j for j in spec.joints}
     for i, name in enumerate(arm.joint_names):
-        js = spec.joint(name)
+        js = by_name[name]
         unit, k = _angle_unit(js.type is JointType.PRISMATIC, args.deg)
         vel = arm.velocity_limits[i]
+        lim = eff.joint(name) if eff is not None else None
+        calibrated = lim.calibration if lim is not None else None
+        shown_cal = ([fmt(calibrated[0] * k, 3), fmt(calibrated[1] * k, 3)] if calibrated
+                     else ["-", "-"]) if eff is not None else []
         rows.append([str(i), name, js.type.value, js.role.value, f"{fmt(arm.lower[i] * k, 3)}",
-                     f"{fmt(arm.upper[i] * k, 3)}", unit,
+                     f"{fmt(arm.upper[i] * k, 3)}", *shown_cal, unit,
                      "-" if math.isnan(vel) else f"{fmt(vel * k, 2)} {unit}/s",
                      " ".join(fmt(a, 3) for a in js.axis)])
         joints.append({"index": i, "name": name, "type": js.type.value, "role": js.role.value,
@@ -91,6 +100,11 @@ def cmd_info(args: argparse.Namespace) -> int:
                        "lower": arm.lower[i], "upper": arm.upper[i],
                        "velocity": arm.velocity_limits[i],
                        "acceleration": arm.acceleration_limits[i], "jerk": arm.jerk_limits[i]})
+        if lim is not None:
+            joints[-1].update({
+                "calibrated": list(calibrated) if calibrated else None,
+                "effective": [lim.lower.value, lim.upper.value],
+                "lower_source": lim.lower.source.value, "upper_source": lim.upper.source.value})
     lines = [f"arm {spec.name!r}: {arm.dof} DOF, base {spec.base!r}, tool {spec.tool!r}"]
     if spec.description:
         lines.append(spec.description)
@@ -99,8 +113,16 @@ def cmd_info(args: argparse.Namespace) -> int:
     if spec.file:
         lines.append(f"file: {spec.file}")
     lines.append("")
-    lines.append(table(["#", "joint", "type", "role", "lower", "upper", "unit", "velocity", "axis"],
-                       rows, right=[0, 4, 5]))
+    heads = ["#", "joint", "type", "role", "lower", "upper"]
+    heads += ["cal. lower", "cal. upper"] if eff is not None else []
+    lines.append(table([*heads, "unit", "velocity", "axis"], rows,
+                       right=list(range(4, len(heads)))))
+    if cal is not None and eff is not None:
+        lines.append(f"lower/upper: the config's limits; cal.: the range swept during "
+                     f"calibration ({cal.file}, hash {cal.hash}).\nMoves stay inside both "
+                     f"({eff.margin_ticks} servo ticks inside the calibrated range) and inside "
+                     "the servos' position limit registers; 'armctl status' shows the effective "
+                     "limits.")
     lines.append("")
     lines.append("end effectors: " + ", ".join(spec.end_effectors))
     from armctl.ik.analytic.classify import describe
@@ -117,6 +139,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         "end_effectors": list(spec.end_effectors), "joints": joints,
         "frames": list(arm.frame_names), "poses": spec.poses, "source": spec.source,
         "file": str(spec.file) if spec.file else None, "ik_family": ik_family,
+        "calibration": {"file": str(cal.file), "hash": cal.hash} if cal is not None else None,
     }
     if spec.bus is not None:
         bus = spec.bus
@@ -136,22 +159,22 @@ def _tree_lines(spec: Any) -> list[str]:
     frames: dict[str, list[str]] = {}
     for f in spec.frames:
         frames.setdefault(f.parent, []).append(f.name)
-    out: list[str] = []
 
-    def walk(link: str, prefix: str) -> None:
+    def below(link: str, prefix: str) -> list[tuple[str, Any, str, bool]]:
         items: list[tuple[str, Any]] = [("frame", f) for f in frames.get(link, [])]
         items += [("joint", j) for j in children.get(link, [])]
-        for k, (kind, item) in enumerate(items):
-            last = k == len(items) - 1
-            branch = "└─ " if last else "├─ "
-            if kind == "frame":
-                out.append(f"{prefix}{branch}[frame] {item}")
-            else:
-                out.append(f"{prefix}{branch}{item.name} ({item.type.value}) -> {item.child}")
-                walk(item.child, prefix + ("   " if last else "│  "))
+        return [(kind, item, prefix, k == len(items) - 1) for k, (kind, item) in enumerate(items)]
 
-    out.append(spec.base)
-    walk(spec.base, "")
+    out: list[str] = [spec.base]
+    stack = below(spec.base, "")[::-1]  # depth first without recursion: chains can be long
+    while stack:
+        kind, item, prefix, last = stack.pop()
+        branch = "└─ " if last else "├─ "
+        if kind == "frame":
+            out.append(f"{prefix}{branch}[frame] {item}")
+        else:
+            out.append(f"{prefix}{branch}{item.name} ({item.type.value}) -> {item.child}")
+            stack += below(item.child, prefix + ("   " if last else "│  "))[::-1]
     return out
 
 
@@ -206,22 +229,28 @@ def _outside_limits(arm: Arm, q: np.ndarray, deg: bool) -> dict[str, str]:
 
 def cmd_convert(args: argparse.Namespace) -> int:
     """Convert a URDF to armctl YAML."""
+    from armctl.atomic_write import write_atomic
     from armctl.config.urdf import load_urdf
     from armctl.config.writer import dump_arm_yaml
     from armctl.errors import ConfigError, KeyPath
 
     out = Path(args.output)
+    if out.is_dir():
+        raise ConfigError("the output is a folder", KeyPath(out),
+                          f"give the YAML file to write, e.g. {out / 'arm.yaml'}")
     if out.exists() and not args.force:
         raise ConfigError("the output file exists already", KeyPath(out),
                           "choose another name or pass --force to overwrite it")
+    folder = out.parent if str(out.parent) else Path()
+    if not folder.is_dir():
+        raise ConfigError(f"the folder {folder} does not exist", KeyPath(out),
+                          "create it first or choose another location")
     imported = load_urdf(args.urdf, args.tip)
     header = f"Converted from {Path(args.urdf).name} by armctl convert."
     for note in imported.notes:
         header += f"\nNote: {note}"
     text = dump_arm_yaml(imported.spec, out, header)
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(out)
+    write_atomic(out, text)  # a failed write leaves no partial file
     spec = imported.spec
     emit(args, {"output": str(out), "dof": len(spec.actuated_joints), "tool": spec.tool,
                 "notes": list(imported.notes)},

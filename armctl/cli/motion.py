@@ -10,7 +10,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from armctl.cli._common import add_config, add_json, emit, fmt, parse_angles, table
+from armctl.cli._common import (
+    add_config,
+    add_json,
+    emit,
+    finite,
+    fmt,
+    is_keyframe_file,
+    load_arm_arg,
+    parse_angles,
+    positive_int,
+    table,
+)
 from armctl.config.schema import JointType
 from armctl.errors import ArmctlError, InputError
 
@@ -29,12 +40,13 @@ _STILL_GAP = 1e-6
 
 # ---- arguments -------------------------------------------------------------------------------
 def _add_move_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--speed", type=float, default=None,
-                   help="speed factor in (0, 1] of the joint limits (default: the config's)")
+    p.add_argument("--speed", type=finite, default=None,
+                   help="speed factor of the joint limits, 0.01 to 1 (default: the config's)")
     p.add_argument("--dry-run", action="store_true", help="print the plan, move nothing")
     p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None,
-                   help="what to do at the end and on a second Ctrl-C (default: the config's, "
-                        "normally hold)")
+                   help="what to do when the command ends normally (default: hold); a stopped "
+                        "motion always holds where it stopped")
+    p.set_defaults(stop_signals=True)  # SIGINT, SIGTERM, SIGHUP stop the motion (cli main)
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -75,10 +87,16 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                        "rewritten atomically after every keyframe. Type 'help' for commands.")
     add_config(p)
     p.add_argument("-o", "--output", required=True, help="keyframe file to write")
+    existing = p.add_mutually_exclusive_group()
+    existing.add_argument("--force", action="store_true",
+                          help="overwrite an existing keyframe file")
+    existing.add_argument("--append", action="store_true",
+                          help="add to an existing keyframe file (same arm; its units are kept)")
     p.add_argument("--release", nargs="+", default=None, metavar="JOINT",
                    help="joints to release for hand-guiding (default: all but the gripper)")
     p.add_argument("--stiff", action="store_true", help="start with torque on (jog mode)")
-    p.add_argument("--deg", action="store_true", help="write angles in degrees")
+    p.add_argument("--deg", action="store_true",
+                   help="write angles in degrees (with --append: the file's unit is kept)")
     add_json(p)
     p.set_defaults(func=cmd_teach)
 
@@ -91,31 +109,41 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    default="min-jerk", help="how keyframes are joined (default min-jerk)")
     p.add_argument("--stop-at-keyframes", action="store_true",
                    help="stop at every keyframe instead of passing through")
-    p.add_argument("--loop", type=int, default=1, metavar="N", help="play N times")
+    p.add_argument("--loop", type=positive_int, default=1, metavar="N", help="play N times")
     p.add_argument("--reverse", action="store_true", help="play the keyframes backwards")
     p.add_argument("--no-ease-in", action="store_true",
                    help="do not move slowly to the first keyframe (the arm must be there)")
     p.add_argument("--ignore-times", action="store_true",
                    help="time a recording by the joint limits, not its time stamps")
-    p.add_argument("--preview", metavar="PNG", help="write a plot of the plan (no motion)")
+    p.add_argument("--preview", metavar="PNG",
+                   help="write a plot of the plan (.png .svg .pdf .jpg; no motion)")
     p.add_argument("--solver", default="auto", help="IK solver for pose keyframes")
-    p.add_argument("--speed", type=float, default=1.0,
-                   help="speed factor: 0.1-4 for recordings, (0, 1] of the limits otherwise")
+    p.add_argument("--speed", type=finite, default=1.0,
+                   help="speed factor: 0.01-4 for recordings played by their time stamps, "
+                        "0.01-1 of the joint limits otherwise (default 1)")
     p.add_argument("--dry-run", action="store_true", help="print the plan, move nothing")
-    p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None)
+    p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None,
+                   help="what to do when playback ends normally (default: hold); a stopped "
+                        "motion always holds where it stopped")
     add_json(p)
-    p.set_defaults(func=cmd_play)
+    p.set_defaults(func=cmd_play, stop_signals=True)
 
 
 # ---- shared ------------------------------------------------------------------------------------
-def _open(args: argparse.Namespace) -> Robot:
+def _open(args: argparse.Namespace, hold: bool = False) -> Robot:
+    """Open the arm's robot (and its bus).
+
+    Without ``hold`` nothing is written to the servos until the first motion (which holds the
+    present pose first), so a plan is checked against the effective limits before torque comes
+    on, and a dry run never switches torque on.
+    """
     from armctl.config.motion import ExitPolicy
     from armctl.robot import Robot
 
     policy = ExitPolicy(args.exit_policy) if getattr(args, "exit_policy", None) else None
     speed = getattr(args, "speed", None)
     robot = Robot.open(args.config, speed=speed if speed is not None and speed <= 1 else None,
-                       exit_policy=policy)
+                       exit_policy=policy, hold=hold)
     if robot.simulated and not getattr(args, "json", False):
         print(f"--- SIMULATED BUS: arm {robot.arm.name!r}, no hardware ---", file=sys.stderr)
     return robot
@@ -203,47 +231,91 @@ def _stream_text(robot: Robot, report: MoveReport, idle: str | None = None
     text = (f"streamed {s.cycles} cycles at {s.achieved_rate:.1f} Hz (target {s.rate_hz:g}), "
             f"jitter p99 {s.jitter_p99 * 1000:.2f} ms, max tracking error "
             f"{math.degrees(float(np.max(s.max_tracking_error, initial=0.0))):.2f} deg")
+    mapping = getattr(robot.bus, "mapping", None)
+    names = {j.servo_id: j.name for j in mapping.joints} if mapping is not None else {}
+    data["bus_retries"] = [{"servo_id": sid, "joint": names.get(sid), "count": n}
+                           for sid, n in s.retries.items()]
+    if s.retries:  # retries hide intermittent faults: never a silent success
+        text += ("\nbus retries (replies missing, corrupt or late): " + ", ".join(
+            f"servo {sid}" + (f" ({names[sid]})" if sid in names else "") + f" {n}"
+            for sid, n in s.retries.items()))
     return data, text
 
 
 def _close(robot: Robot, args: argparse.Namespace) -> None:
-    """End a command: hold the arm where it is, unless --exit-policy asks otherwise.
-
-    The configured exit policy still applies to a second Ctrl-C during a motion.
-    """
+    """End a command normally: hold the arm where it is, unless --exit-policy asks otherwise."""
     from armctl.config.motion import ExitPolicy
 
     robot.close(ExitPolicy(args.exit_policy) if getattr(args, "exit_policy", None)
                 else ExitPolicy.HOLD)
 
 
+def _hold_and_close(robot: Robot, args: argparse.Namespace, why: str) -> None:
+    """End a command that was stopped or failed: hold where the arm is, never park or release."""
+    from armctl.config.motion import ExitPolicy
+
+    if getattr(args, "exit_policy", None) not in (None, "hold"):
+        print(f"armctl: {why}: the arm holds where it is (--exit-policy {args.exit_policy} "
+              "not applied)", file=sys.stderr)
+    try:
+        robot.close(ExitPolicy.HOLD)
+    except ArmctlError as failure:  # keep the first error; report this one too
+        print(f"armctl: closing the bus failed: {failure}", file=sys.stderr)
+
+
 def _run(args: argparse.Namespace, fn: Any) -> Any:
+    from armctl.robot import MotionStopped
+
     robot = _open(args)
     progress = _Progress(not args.json and not getattr(args, "dry_run", False))
     try:
         result = fn(robot, progress)
-    except BaseException:
+    except BaseException as exc:
         progress.done()
-        try:
-            _close(robot, args)
-        except ArmctlError as failure:  # keep the first error; report this one too
-            print(f"armctl: exit policy failed: {failure}", file=sys.stderr)
+        if isinstance(exc, MotionStopped) and not args.json:
+            print(_stop_text(robot, exc), flush=True)
+        _hold_and_close(robot, args, "the motion was stopped" if isinstance(exc, MotionStopped)
+                        else "the command failed")
         raise
     progress.done()
-    _close(robot, args)
+    guard = getattr(args, "signal_guard", None)
+    if guard is not None and guard.signalled:  # a signal after the motion: no exit policy
+        _hold_and_close(robot, args, "signal received")
+    else:
+        _close(robot, args)
     return robot, result
+
+
+def _stop_text(robot: Robot, stopped: Any) -> str:
+    """Where a stopped motion left the arm: joints (deg, mm) and the tool pose."""
+    where = stopped.stopped_at
+    head = f"stopped {stopped.time:.2f} s into the motion"
+    if where is None:
+        return head + "; the position could not be read back"
+    arm = robot.arm
+    joints = where["joints"]
+    rows = [[n, *_shown(arm, i, float(joints[n]))] for i, n in enumerate(arm.joint_names)]
+    rpy = np.degrees(np.asarray(where["rpy"], dtype=float))
+    return (f"{head}; the arm holds here (joints read back):\n"
+            + table(["joint", "stopped at", "unit"], rows, right=[1]) + "\n"
+            f"tool xyz {np.round(np.asarray(where['xyz'], dtype=float), 4).tolist()} m, rpy "
+            f"{np.round(rpy, 1).tolist()} deg (FK of the joints read back)")
 
 
 # ---- commands -----------------------------------------------------------------------------------
 def cmd_move_to_pose(args: argparse.Namespace) -> int:
     """``armctl move-to-pose``."""
-    from armctl.arm import load_arm
+    from armctl.cli import _checks
     from armctl.cli.ik import build_goals
 
     if args.xyz is None:
         raise InputError("move-to-pose needs --xyz X Y Z (optionally with --rpy, --quat or "
                          "--direction)")
-    (goal,) = build_goals(args, load_arm(args.config))
+    arm = load_arm_arg(args)
+    (goal,) = build_goals(args, arm)
+    _checks.check_speed_arg(args, arm)
+    _checks.check_solver(args.solver)
+    _checks.check_goal_reach(arm, goal, args.solver)
 
     def go(robot: Robot, progress: _Progress) -> MoveReport:
         plan, ik = robot.plan_pose(goal, linear=args.linear, speed=args.speed,
@@ -294,17 +366,23 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
 
 def cmd_move_joints(args: argparse.Namespace) -> int:
     """``armctl move-joints``."""
-    from armctl.arm import load_arm
+    from armctl.cli import _checks
 
-    arm = load_arm(args.config)
+    arm = load_arm_arg(args)
     q = parse_angles(args.values, args.deg, arm, "move-joints values")
     _check_values(arm, q, args.deg)
+    _checks.check_speed_arg(args, arm)
     return _joint_command(args, lambda robot: q, "move to joint values",
                           "already at these joint values; nothing to do")
 
 
 def cmd_named(args: argparse.Namespace) -> int:
     """``armctl home`` and ``armctl park``."""
+    from armctl.cli import _checks
+
+    arm = load_arm_arg(args)
+    _checks.check_named_pose(arm, args.pose)
+    _checks.check_speed_arg(args, arm)
     return _joint_command(args, lambda robot: robot.arm.named_pose(args.pose),
                           f"move to the {args.pose!r} pose",
                           f"already at the {args.pose!r} pose; nothing to do")
@@ -363,16 +441,18 @@ def _joint_command(args: argparse.Namespace, target: Any, what: str, idle: str) 
 
 def cmd_play(args: argparse.Namespace) -> int:
     """``armctl play``."""
-    from armctl.arm import load_arm
+    from armctl.cli import _checks
     from armctl.motion import Interpolation, PlaybackOptions, load_keyframes
 
     _refuse_swapped(args.file, args.config)
-    arm = load_arm(args.config)
+    _checks.check_keyframe_path(args.file)
+    arm = load_arm_arg(args)
     program = load_keyframes(args.file, arm)
     options = PlaybackOptions(
         interpolation=Interpolation(args.interpolation), blend=not args.stop_at_keyframes,
         speed=args.speed, loops=args.loop, reverse=args.reverse, ease_in=not args.no_ease_in,
         use_times=not args.ignore_times)
+    _checks.check_play(args, arm, program, options)
     if args.preview:
         args.dry_run = True
 
@@ -418,21 +498,15 @@ def _refuse_swapped(file: str, config: str) -> None:
     Raises:
         InputError: If ``config`` is a YAML file with an ``armctl_keyframes`` key.
     """
-    from pathlib import Path
-
-    import yaml
-
-    path = Path(config)
-    if path.suffix.lower() not in (".yaml", ".yml") or not path.is_file():
+    if not is_keyframe_file(config):
         return
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
-        return  # loading it as an arm config reports the problem
-    if isinstance(doc, dict) and "armctl_keyframes" in doc:
-        raise InputError(f"{config} is a keyframe file, not an arm config: the arguments look "
-                         f"swapped: use armctl play KEYFRAMES CONFIG (armctl play {config} "
-                         f"{file})")
+    if is_keyframe_file(file):
+        raise InputError(f"{config} is a keyframe file, not an arm config: give the arm config "
+                         f"(a YAML or URDF file, or a bundled arm name such as so101) after the "
+                         f"keyframe file: armctl play {file} CONFIG")
+    raise InputError(f"{config} is a keyframe file, not an arm config: the arguments look "
+                     f"swapped: use armctl play KEYFRAMES CONFIG (armctl play {config} "
+                     f"{file})")
 
 
 def _preview(robot: Robot, plan: MotionPlan, path: str) -> None:
@@ -460,7 +534,9 @@ def _preview(robot: Robot, plan: MotionPlan, path: str) -> None:
     ax1.legend(fontsize=7, ncol=3)
     ax1.set_title(plan.description)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    from armctl.render.plots import save_figure
+
+    save_figure(fig, path, dpi=100)
 
 
 TEACH_HELP = """commands (then Enter):
@@ -478,20 +554,25 @@ TEACH_HELP = """commands (then Enter):
 
 def cmd_teach(args: argparse.Namespace) -> int:
     """``armctl teach``: an interactive, line-based teach session."""
+    from armctl.cli import _checks
     from armctl.motion import AngleUnit
-    from armctl.robot.teach import TeachSession
+    from armctl.robot.teach import ExistingFile, TeachSession
 
-    robot = _open(args)
+    _checks.check_teach_output(args, load_arm_arg(args))
+    existing = (ExistingFile.APPEND if args.append else
+                ExistingFile.OVERWRITE if args.force else ExistingFile.REFUSE)
+    robot = _open(args, hold=True)  # the stiff joints (grippers) hold from the start
     try:
         session = TeachSession(robot, args.output, args.release,
-                               AngleUnit.DEG if args.deg else AngleUnit.RAD)
+                               AngleUnit.DEG if args.deg else AngleUnit.RAD, existing=existing)
         session.start(limp=not args.stiff)
         say = (lambda s: None) if args.json else (lambda s: print(s, flush=True))
         say(f"teaching {robot.arm.name} into {args.output}; torque off for: "
             f"{', '.join(session.release) if session.limp else '(none)'}\n"
             "  warning: released joints fall under gravity; support the arm\n" + TEACH_HELP)
         try:
-            _teach_loop(session, robot, say)
+            _teach_loop(session, robot, say, say if not args.json else (
+                lambda s: print(f"armctl: {s}", file=sys.stderr, flush=True)))
         except KeyboardInterrupt:
             say("\ninterrupted: keeping what was recorded")
         finally:
@@ -504,10 +585,29 @@ def cmd_teach(args: argparse.Namespace) -> int:
     return 0
 
 
-def _teach_loop(session: Any, robot: Robot, say: Any) -> None:
+def _number(text: str) -> float:
+    """A finite number typed in a teach session.
+
+    Raises:
+        ValueError: For text that is not a finite number.
+    """
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text!r} is not a finite number")
+    return value
+
+
+def _teach_loop(session: Any, robot: Robot, say: Any, complain: Any) -> None:
+    """Read and run teach commands until 'q' or the end of input.
+
+    A command that fails for a user's reason (bad numbers, an unknown joint, a goal out of
+    reach or outside the limits) is reported and the session goes on; bus failures and
+    stopped motions end it. ``say`` prints progress, ``complain`` such errors.
+    """
     import threading
 
     from armctl.config.schema import JointType
+    from armctl.errors import NoSolutionError
 
     while True:
         line = sys.stdin.readline()
@@ -528,36 +628,50 @@ def _teach_loop(session: Any, robot: Robot, say: Any) -> None:
                 name = next((r for r in rest if "=" not in r), "")
                 opts = dict(r.split("=", 1) for r in rest if "=" in r)
                 grip = opts.get("gripper")
-                kf = session.record(name, float(opts.get("dwell", 0.0)),
-                                    None if grip in (None, "g") else float(grip),
+                kf = session.record(name, _number(opts.get("dwell", "0")),
+                                    None if grip in (None, "g") else _number(grip),
                                     with_gripper=grip == "g")
                 say(f"keyframe {len(session.program.keyframes)} {kf.name!r} recorded")
             elif cmd == "g":
-                kf = session.record(gripper=float(rest[0]))
+                kf = session.record(gripper=_number(rest[0]))
                 say(f"gripper event {kf.gripper} recorded")
             elif cmd == "u":
                 say("removed the last keyframe" if session.undo() else "nothing to undo")
             elif cmd == "c":
-                rate = float(rest[0]) if rest else 20.0
-                duration = float(rest[1]) if len(rest) > 1 else None
+                rate = _number(rest[0]) if rest else 20.0
+                duration = _number(rest[1]) if len(rest) > 1 else None
+                session.check_recording(rate, duration)
                 stop = threading.Event()
-                worker = threading.Thread(target=session.record_continuous,
-                                          args=(rate, stop, duration), daemon=True)
+                failure: list[BaseException] = []
+
+                def record(rate: float = rate, duration: float | None = duration,
+                           stop: threading.Event = stop,
+                           failure: list[BaseException] = failure) -> None:
+                    try:
+                        session.record_continuous(rate, stop, duration)
+                    except BaseException as exc:  # handed to the main thread below
+                        failure.append(exc)
+
+                worker = threading.Thread(target=record, daemon=True)
                 worker.start()
                 say(f"recording at {rate:g} Hz; press Enter to stop")
                 if duration is None:
                     sys.stdin.readline()
                     stop.set()
                 worker.join()
+                if failure:
+                    raise failure[0]
                 say(f"{len(session.program.keyframes)} keyframes in the file")
             elif cmd == "j":
-                joint, delta = rest[0], float(rest[1])
+                joint, delta = rest[0], _number(rest[1])
                 kind = robot.arm.joint_types[robot.arm.joint_index(joint)]
                 step = delta / 1000 if kind is JointType.PRISMATIC else math.radians(delta)
                 session.jog_joint(joint, step)
                 say(f"{joint} moved")
             elif cmd == "x":
-                session.jog_cartesian(np.array([float(v) for v in rest[:3]]) / 1000)
+                if len(rest) != 3:
+                    raise ValueError("x takes three numbers DX DY DZ [mm]")
+                session.jog_cartesian(np.array([_number(v) for v in rest]) / 1000)
                 say(f"tool at {np.round(robot.pose()[:3, 3], 4).tolist()} m")
             elif cmd == "limp":
                 session.set_limp(True)
@@ -570,8 +684,9 @@ def _teach_loop(session: Any, robot: Robot, say: Any) -> None:
                 say(f"joints [deg] {np.round(np.degrees(q), 1).tolist()}; tool "
                     f"{np.round(robot.pose()[:3, 3], 4).tolist()} m")
             else:
-                say(f"unknown command {cmd!r}; type 'help'")
+                complain(f"unknown command {cmd!r}; type 'help'")
+        except (InputError, NoSolutionError) as exc:  # reported; the session goes on
+            complain(f"error: {exc}")
         except (ValueError, IndexError) as exc:
-            say(f"could not read {line.strip()!r}: {exc}; type 'help'")
-        except InputError as exc:
-            say(f"error: {exc}")
+            why = "a value is missing" if isinstance(exc, IndexError) else str(exc)
+            complain(f"could not read {line.strip()!r}: {why}; type 'help'")

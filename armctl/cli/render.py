@@ -10,7 +10,20 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from armctl.cli._common import add_config, add_json, emit, fmt, load_arm_arg, parse_angles, table
+from armctl.cli._common import (
+    add_config,
+    add_json,
+    check_rpy,
+    emit,
+    finite,
+    fmt,
+    load_arm_arg,
+    nonnegative,
+    parse_angles,
+    positive,
+    positive_int,
+    table,
+)
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
@@ -36,14 +49,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pose", help="a named pose of the arm instead of Q")
     p.add_argument("--view", choices=_VIEWS, default="iso",
                    help="camera: iso, front (from +x), side (from -y), top, or all four")
-    p.add_argument("--elev", type=float, help="camera elevation [deg] (overrides --view)")
-    p.add_argument("--azim", type=float, help="camera azimuth from +x [deg] (overrides --view)")
+    p.add_argument("--elev", type=finite, help="camera elevation [deg] (overrides --view)")
+    p.add_argument("--azim", type=finite, help="camera azimuth from +x [deg] (overrides --view)")
     p.add_argument("--frames", action="append", metavar="NAMES",
                    help="frames drawn as axis triads: 'tool' (default), 'all', 'none', or "
                    "comma-separated frame names; may be repeated")
-    p.add_argument("--target-xyz", nargs=3, type=float, metavar=("X", "Y", "Z"),
+    p.add_argument("--target-xyz", nargs=3, type=finite, metavar=("X", "Y", "Z"),
                    help="draw a target position [m]")
-    p.add_argument("--target-rpy", nargs=3, type=float, metavar=("R", "P", "Y"),
+    p.add_argument("--target-rpy", nargs=3, type=finite, metavar=("R", "P", "Y"),
                    help="target orientation, roll pitch yaw (radians, or degrees with --deg)")
     motion = p.add_mutually_exclusive_group()
     motion.add_argument("--keyframes", metavar="FILE",
@@ -52,12 +65,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                         help="plan a straight-line move from Q to the target and draw it with its "
                         "IK samples (-o image), or animate it (-o .gif/.mp4)")
     p.add_argument("--solver", default="auto", help="IK solver for --path and pose keyframes")
-    p.add_argument("--speed", type=float, default=1.0,
+    p.add_argument("--speed", type=finite, default=1.0,
                    help="speed factor of the planned motion, (0, 1] (default 1)")
-    p.add_argument("--fps", type=float, default=20.0, help="animation frames per second (20)")
-    p.add_argument("--size", type=float, default=None,
+    p.add_argument("--fps", type=positive, default=20.0, help="animation frames per second (20)")
+    p.add_argument("--size", type=positive, default=None,
                    help="size of one panel [in] (default 5, animations 4.5)")
-    p.add_argument("--dpi", type=float, default=None,
+    p.add_argument("--dpi", type=positive, default=None,
                    help="resolution (default 110, animations 80)")
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
     add_json(p)
@@ -67,12 +80,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_config(p)
     p.add_argument("-o", "--output", required=True, help="image file (.png .svg .pdf .jpg)")
     p.add_argument("--frame", help="frame to sample (default: the tool frame)")
-    p.add_argument("--samples", type=int, default=20000, help="random configurations (20000)")
+    p.add_argument("--samples", type=positive_int, default=20000,
+                   help="random configurations (20000)")
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
-    p.add_argument("--voxel", type=float, help="voxel edge [m] of the volume estimate")
-    p.add_argument("--z", type=float, help="height [m] of the x-y slice (default: mid z)")
-    p.add_argument("--y", type=float, help="offset [m] of the x-z slice (default: mid y)")
-    p.add_argument("--slab", type=float, help="slice thickness [m] (default: 5%% of the extent)")
+    p.add_argument("--voxel", type=positive, help="voxel edge [m] of the volume estimate")
+    p.add_argument("--z", type=finite, help="height [m] of the x-y slice (default: mid z)")
+    p.add_argument("--y", type=finite, help="offset [m] of the x-z slice (default: mid y)")
+    p.add_argument("--slab", type=positive, help="slice thickness [m] (default: 5%% of the extent)")
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
     add_json(p)
     p.set_defaults(func=cmd_workspace)
@@ -90,9 +104,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "when it says so) by reading joint positions")
     p.add_argument("--sim", action="store_true",
                    help="with --bus: use the built-in simulated bus whatever port the config names")
-    p.add_argument("--rate", type=float, default=20.0, help="bus polls per second (20)")
+    p.add_argument("--rate", type=positive, default=20.0, help="bus polls per second (20)")
     p.add_argument("--solver", default="auto", help="IK solver for the target (default auto)")
-    p.add_argument("--duration", type=float, help="stop after this many seconds")
+    p.add_argument("--duration", type=nonnegative, help="stop after this many seconds")
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
     add_json(p)
     p.set_defaults(func=cmd_view)
@@ -130,6 +144,7 @@ def _target(args: argparse.Namespace) -> Target | None:
     values = [*args.target_xyz, *(args.target_rpy or ())]
     if not all(math.isfinite(v) for v in values):
         raise InputError(f"the target has a NaN or infinite value: {values}")
+    check_rpy(args.target_rpy, args.deg, "--target-rpy")
     rpy = None
     if args.target_rpy is not None:
         rpy = np.radians(args.target_rpy) if args.deg else np.asarray(args.target_rpy)
@@ -194,6 +209,9 @@ def _render_motion(args: argparse.Namespace, arm: Arm, q: np.ndarray, view: View
     line = None
     data: dict[str, Any] = {"output": args.output, "start": q}
     if args.keyframes:
+        from armctl.cli._checks import check_keyframe_path
+
+        check_keyframe_path(args.keyframes)
         plan = plan_keyframes(arm, args.keyframes, q, args.solver, args.speed)
         head = f"playback of {Path(args.keyframes).name}"
     else:
@@ -261,6 +279,7 @@ def _bus_reader(arm: Arm, sim: bool) -> Any:
 
     from armctl.config.bus import SIM_PORT
     from armctl.servo import ArmBus
+    from armctl.servo.calibration import load_calibration
 
     spec = arm.spec
     if spec.bus is None:
@@ -268,7 +287,22 @@ def _bus_reader(arm: Arm, sim: bool) -> Any:
                          " add one to the arm config or run the view without --bus")
     if sim:
         spec = dataclasses.replace(spec, bus=dataclasses.replace(spec.bus, port=SIM_PORT))
-    return ArmBus.from_spec(spec).open()
+    return ArmBus.from_spec(spec, load_calibration(arm.spec)).open()
+
+
+def view_arm(arm: Arm, bus: Any = None) -> Arm:
+    """The arm as the live view shows it: sliders and IK inside its effective limits.
+
+    Those are the config's limits, narrowed by the calibration (when the arm has a calibration
+    file) and, with an open :class:`~armctl.servo.ArmBus`, by the servos' position limit
+    registers.
+    """
+    from armctl.servo.calibration import load_calibration
+    from armctl.servo.effective_limits import effective_limits, limits_of_bus
+
+    if bus is not None:
+        return limits_of_bus(arm.spec, bus).apply(arm)
+    return effective_limits(arm.spec, load_calibration(arm.spec)).apply(arm)
 
 
 def cmd_view(args: argparse.Namespace) -> int:
@@ -283,6 +317,12 @@ def cmd_view(args: argparse.Namespace) -> int:
     if args.sim and not args.bus:
         raise InputError("--sim applies to --bus (the bus the view follows)")
     bus = _bus_reader(arm, args.sim) if args.bus else None
+    try:
+        arm = view_arm(arm, bus)
+    except BaseException:
+        if bus is not None:
+            bus.close()
+        raise
     view = LiveView(arm, args.host, args.port, args.solver)
     try:
         url = view.start()

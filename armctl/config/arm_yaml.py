@@ -26,9 +26,10 @@ from armctl.config.schema import (
     Mesh,
     Origin,
     Sphere,
+    unit_axis,
 )
 from armctl.config.source import Document, Section, load_yaml
-from armctl.config.tree import order_tree
+from armctl.config.tree import check_arm_size, order_tree
 from armctl.spatial import make_transform, matrix_to_rpy
 
 __all__ = ["SCHEMA_VERSION", "load_arm_yaml", "parse_arm"]
@@ -79,12 +80,17 @@ def parse_arm(doc: Document) -> ArmSpec:
     base = top.string("base")
     dh = top.choice("dh_convention", str, ["standard", "modified"], "none")
     joints: list[JointSpec] = []
-    for sec in top.list_of("joints"):
+    joint_secs = top.list_of("joints")
+    check_arm_size(len(joint_secs), 0, top.where("joints"))  # before reading them one by one
+    for sec in joint_secs:
         joints.extend(_parse_joint(sec.mapping(), dh))
     if not joints:
         raise top.error("the arm has no joints", "joints", fix="list at least one joint")
+    frame_secs = top.list_of("frames")
+    check_arm_size(len(joints), 0, top.where("joints"))  # multi-DOF joints count per axis
+    check_arm_size(0, len(frame_secs), top.where("frames"))
     links = [_parse_link(sec.mapping(), doc.file) for sec in top.list_of("links")]
-    frames = [_parse_frame(sec.mapping()) for sec in top.list_of("frames")]
+    frames = [_parse_frame(sec.mapping()) for sec in frame_secs]
     declared = [lk.name for lk in links]
     if len(set(declared)) != len(declared):
         dup = next(n for n in declared if declared.count(n) > 1)
@@ -107,8 +113,9 @@ def parse_arm(doc: Document) -> ArmSpec:
         from armctl.config.bus import parse_bus
 
         bus = parse_bus(top.child("bus").mapping())
+        actuated_names = {j.name for j in actuated}
         for servo in bus.servos:
-            if servo.joint not in {j.name for j in actuated}:
+            if servo.joint not in actuated_names:
                 raise top.error(
                     f"servo for unknown or fixed joint {servo.joint!r}", "bus", "servos",
                     servo.joint, fix=_nearest(servo.joint, [j.name for j in actuated]))
@@ -151,11 +158,12 @@ def origin_from_matrix(t: np.ndarray) -> Origin:
 
 def _axis(sec: Section) -> tuple[float, float, float]:
     """A unit vector from a section whose value is a list of three numbers."""
-    v = np.array(sec.as_vector(3))
-    n = float(np.linalg.norm(v))
-    if n < 1e-9:
-        raise sec.error(f"axis {list(v)} has zero length", fix="give a direction such as [0, 0, 1]")
-    return tuple(float(x) for x in v / n)  # type: ignore[return-value]
+    v = sec.as_vector(3)
+    unit = unit_axis(v)
+    if unit is None:
+        shown = ", ".join(f"{x:g}" for x in v)
+        raise sec.error(f"axis [{shown}] has zero length", fix="give a direction such as [0, 0, 1]")
+    return unit
 
 
 def _limits(sec: Section, jtype: JointType) -> Limits:

@@ -11,7 +11,10 @@ __all__ = ["ExitPolicy", "MotionSpec", "parse_motion"]
 
 
 class ExitPolicy(Enum):
-    """What the arm does after a second Ctrl-C or when a session ends."""
+    """What the arm does when a session (a ``Robot`` block, a command) ends normally.
+
+    A stopped motion or an error never applies it: the arm holds where it is.
+    """
 
     HOLD = "hold"  # keep torque on and hold the present position
     PARK = "park"  # move to the ``park`` pose, then hold
@@ -27,7 +30,7 @@ class MotionSpec:
         speed: Default speed factor applied to the joint velocity and acceleration limits.
         max_tracking_error: Largest allowed |commanded - measured| joint error in [rad] before
             the motion is stopped.
-        exit_policy: What to do on a second Ctrl-C or at the end of a session.
+        exit_policy: What to do at the normal end of a session (never after a stop).
     """
 
     rate_hz: float = 50.0

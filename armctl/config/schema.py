@@ -39,7 +39,34 @@ __all__ = [
     "Mesh",
     "Origin",
     "Sphere",
+    "unit_axis",
 ]
+
+#: Axes shorter than this [m or unitless] are taken for zero-length (a typing mistake).
+MIN_AXIS_LENGTH = 1e-9
+
+
+def unit_axis(v: tuple[float, ...]) -> tuple[float, float, float] | None:
+    """The unit vector along ``v`` (three finite numbers), or ``None`` if ``v`` is (nearly) zero.
+
+    The vector is scaled by its largest component before it is normalised, so that components
+    near the float range (``1e308``) neither overflow to an infinite length nor turn a nonzero
+    axis into a zero one.
+
+    Args:
+        v: The three components of a direction, any length.
+
+    Returns:
+        The unit vector, or ``None`` when the length is below :data:`MIN_AXIS_LENGTH`.
+    """
+    big = max(abs(x) for x in v)
+    if not big > 0.0:
+        return None
+    scaled = [x / big for x in v]
+    norm = math.sqrt(sum(x * x for x in scaled))  # in [1, sqrt(3)]: no overflow, no underflow
+    if big * norm < MIN_AXIS_LENGTH:
+        return None
+    return (scaled[0] / norm, scaled[1] / norm, scaled[2] / norm)
 
 
 class JointType(Enum):

@@ -8,7 +8,33 @@ from collections.abc import Sequence
 from armctl.config.schema import FrameSpec, JointSpec
 from armctl.errors import ConfigError, KeyPath
 
-__all__ = ["order_tree"]
+__all__ = ["MAX_FRAMES", "MAX_JOINTS", "check_arm_size", "order_tree"]
+
+#: Most joints an arm may have (of every type, multi-DOF joints counted per axis). Beyond it,
+#: the kinematic model's per-frame joint paths (frames x joints) would take too much memory.
+MAX_JOINTS = 1000
+#: Most named frames an arm may have besides its links.
+MAX_FRAMES = 1000
+
+
+def check_arm_size(joints: int, frames: int, where: KeyPath) -> None:
+    """Refuse an arm with more than :data:`MAX_JOINTS` joints or :data:`MAX_FRAMES` frames.
+
+    Args:
+        joints: Number of joints.
+        frames: Number of named frames besides the links.
+        where: Where the joints (or frames) are listed, for the error.
+
+    Raises:
+        ConfigError: If either count is above its maximum.
+    """
+    if joints > MAX_JOINTS:
+        raise ConfigError(f"the arm has {joints} joints; armctl supports arms of up to "
+                          f"{MAX_JOINTS} joints", where,
+                          "split the description, or model the repeated part as one joint")
+    if frames > MAX_FRAMES:
+        raise ConfigError(f"the arm has {frames} named frames; armctl supports up to "
+                          f"{MAX_FRAMES}", where, "keep the frames you use")
 
 
 def _suggest(name: str, known: Sequence[str]) -> str | None:
@@ -70,17 +96,22 @@ def order_tree(
             raise ConfigError(
                 f"joint {j.name!r} has unknown parent link {j.parent!r}", j.where,
                 _suggest(j.parent, known) or f"use the base {base!r} or the child of another joint")
-    # every link's chain of parents must reach the base: otherwise there is a cycle
+    # every link's chain of parents must reach the base: otherwise there is a cycle. Each link
+    # is walked once: a walk stops at the first link already known to reach the base.
+    reaches = {base}
     for link in parent_joint:
-        seen = {link}
+        walk: list[str] = []
+        on_walk: set[str] = set()
         cur = link
-        while cur != base:
-            cur = parent_joint[cur].parent
-            if cur in seen:
+        while cur not in reaches:
+            if cur in on_walk:
                 raise ConfigError(
                     f"the joints form a cycle through link {cur!r}", parent_joint[link].where,
                     "a kinematic tree has no loops: check the parent and child of these joints")
-            seen.add(cur)
+            walk.append(cur)
+            on_walk.add(cur)
+            cur = parent_joint[cur].parent
+        reaches.update(walk)
     children: dict[str, list[JointSpec]] = {}
     for j in joints:
         children.setdefault(j.parent, []).append(j)

@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from xml.parsers import expat
 
 from armctl.config.schema import (
     ArmSpec,
@@ -26,9 +27,10 @@ from armctl.config.schema import (
     Mesh,
     Origin,
     Sphere,
+    unit_axis,
 )
 from armctl.config.source import read_text
-from armctl.config.tree import order_tree
+from armctl.config.tree import check_arm_size, order_tree
 from armctl.errors import ConfigError, KeyPath, UnknownNameError
 
 __all__ = ["UrdfImport", "load_urdf", "parse_urdf"]
@@ -65,6 +67,43 @@ def load_urdf(path: str | Path, tip: str | None = None) -> UrdfImport:
     return parse_urdf(read_text(p), p, tip)
 
 
+#: The attribute under which :func:`_parse_xml` keeps each element's line (a name XML
+#: cannot contain, so it never meets a real attribute).
+_LINE = " line"
+
+
+def _parse_xml(text: str) -> ET.Element:
+    """Parse XML into an element tree, keeping each element's 1-based line.
+
+    Raises:
+        expat.ExpatError: If the text is not well-formed XML (expat bounds entity expansion).
+    """
+    builder = ET.TreeBuilder()
+    parser = expat.ParserCreate()
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        attrs[_LINE] = str(parser.CurrentLineNumber)
+        builder.start(tag, attrs)
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = builder.end
+    parser.CharacterDataHandler = builder.data
+    parser.Parse(text, True)
+    return builder.close()
+
+
+def _line(el: ET.Element) -> int | None:
+    """The line of an element read by :func:`_parse_xml`."""
+    line = el.get(_LINE)
+    return int(line) if line else None
+
+
+def _at(where: KeyPath, el: ET.Element, attr: str | None = None) -> KeyPath:
+    """The location of child element ``el`` of ``where`` (and of its attribute ``attr``)."""
+    keys = (*where.keys, el.tag) if attr is None else (*where.keys, el.tag, attr)
+    return KeyPath(where.file, keys, _line(el) or where.line, where.label)
+
+
 def _floats(text: str | None, n: int, default: tuple[float, ...], where: KeyPath,
             attr: str) -> tuple[float, ...]:
     if text is None:
@@ -74,15 +113,15 @@ def _floats(text: str | None, n: int, default: tuple[float, ...], where: KeyPath
     except ValueError:
         vals = ()
     if len(vals) != n or not all(math.isfinite(v) for v in vals):
-        raise ConfigError(f"attribute {attr}={text!r} must be {n} numbers", where)
+        raise ConfigError(f"attribute {attr}={text!r} must be {n} finite numbers", where)
     return vals
 
 
 def _origin(el: ET.Element | None, where: KeyPath) -> Origin:
     if el is None:
         return Origin()
-    xyz = _floats(el.get("xyz"), 3, (0.0, 0.0, 0.0), where, "xyz")
-    rpy = _floats(el.get("rpy"), 3, (0.0, 0.0, 0.0), where, "rpy")
+    xyz = _floats(el.get("xyz"), 3, (0.0, 0.0, 0.0), _at(where, el, "xyz"), "xyz")
+    rpy = _floats(el.get("rpy"), 3, (0.0, 0.0, 0.0), _at(where, el, "rpy"), "rpy")
     return Origin(xyz, rpy)  # type: ignore[arg-type]
 
 
@@ -90,12 +129,19 @@ def _number(el: ET.Element, attr: str, where: KeyPath, default: float | None = N
     raw = el.get(attr)
     if raw is None:
         if default is None:
-            raise ConfigError(f"<{el.tag}> is missing attribute {attr!r}", where)
+            raise ConfigError(f"<{el.tag}> is missing attribute {attr!r}", _at(where, el))
         return default
     try:
-        return float(raw)
+        value = float(raw)
     except ValueError:
-        raise ConfigError(f"attribute {attr}={raw!r} is not a number", where) from None
+        raise ConfigError(f"attribute {attr}={raw!r} of <{el.tag}> is not a number",
+                          _at(where, el, attr)) from None
+    if not math.isfinite(value):
+        fix = ("a joint that turns without end is type 'continuous'; leave out velocity or "
+               "effort when unknown" if el.tag == "limit" else "write a finite number")
+        raise ConfigError(f"attribute {attr}={raw!r} of <{el.tag}> must be a finite number",
+                          _at(where, el, attr), fix)
+    return value
 
 
 def _geometry(parent: ET.Element, file: Path | None, where: KeyPath) -> Geometry | None:
@@ -139,17 +185,17 @@ def parse_urdf(text: str, file: Path | None = None, tip: str | None = None) -> U
     """Parse URDF text (see :func:`load_urdf`)."""
     doc = KeyPath(file)
     try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        line = exc.position[0] if exc.position else None
-        raise ConfigError(f"not a valid URDF: not well-formed XML ({exc})", KeyPath(file, (), line),
-                          "check that the file is a URDF (XML), not xacro or YAML") from exc
+        root = _parse_xml(text)
+    except expat.ExpatError as exc:
+        raise ConfigError(f"not a valid URDF: not well-formed XML ({exc})",
+                          KeyPath(file, (), exc.lineno),
+                          "check that the file is a URDF (XML), not xacro or YAML") from None
     if root.tag != "robot":
         raise ConfigError(f"not a URDF: the root element is <{root.tag}>, expected <robot>", doc)
     notes: list[str] = []
     links: list[LinkSpec] = []
     for i, el in enumerate(root.findall("link")):
-        where = KeyPath(file, ("link", i), label=el.get("name"))
+        where = KeyPath(file, ("link", i), _line(el), el.get("name"))
         name = el.get("name")
         if not name:
             raise ConfigError("<link> without a name", where)
@@ -158,9 +204,10 @@ def parse_urdf(text: str, file: Path | None = None, tip: str | None = None) -> U
         links.append(LinkSpec(name, vis, col))
     joints = [_joint(el, i, file, notes) for i, el in enumerate(root.findall("joint"))]
     names = [lk.name for lk in links]
+    known = set(names)
     for j in joints:
         for link in (j.parent, j.child):
-            if link not in names:
+            if link not in known:
                 raise ConfigError(f"joint {j.name!r} names link {link!r}, which is not defined",
                                   j.where, "add a <link name=...> element or fix the name")
     children = {j.child for j in joints}
@@ -180,6 +227,7 @@ def parse_urdf(text: str, file: Path | None = None, tip: str | None = None) -> U
             notes.append(f"kept the chain to {tip!r}; dropped joints: {', '.join(dropped)}")
         ordered = [j for j in ordered if j.child in keep]
         links = [lk for lk in links if lk.name in keep]
+    check_arm_size(len(ordered), 0, doc)
     ordered, link_order = order_tree(base, ordered, [lk.name for lk in links], (), doc)
     by_name = {lk.name: lk for lk in links}
     leaves = _leaves(ordered, base)
@@ -195,7 +243,7 @@ def parse_urdf(text: str, file: Path | None = None, tip: str | None = None) -> U
 
 def _joint(el: ET.Element, i: int, file: Path | None, notes: list[str]) -> JointSpec:
     name = el.get("name") or ""
-    where = KeyPath(file, ("joint", i), label=name or None)
+    where = KeyPath(file, ("joint", i), _line(el), name or None)
     if not name:
         raise ConfigError("<joint> without a name", where)
     kind = el.get("type", "")
@@ -211,12 +259,15 @@ def _joint(el: ET.Element, i: int, file: Path | None, notes: list[str]) -> Joint
     parent, child = parent_el.get("link", ""), child_el.get("link", "")
     origin = _origin(el.find("origin"), where)
     axis_el = el.find("axis")
+    axis_where = where if axis_el is None else _at(where, axis_el, "xyz")
     axis = _floats(axis_el.get("xyz") if axis_el is not None else None, 3, (1.0, 0.0, 0.0),
-                   where, "axis xyz")
-    norm = math.sqrt(sum(a * a for a in axis))
-    if kind != "fixed" and norm < 1e-9:
-        raise ConfigError(f"joint {name!r} has a zero-length axis", where,
+                   axis_where, "axis xyz")
+    found = unit_axis(axis)
+    if kind != "fixed" and found is None:
+        shown = " ".join(f"{a:g}" for a in axis)
+        raise ConfigError(f"joint {name!r} has a zero-length axis ({shown})", axis_where,
                           "give <axis xyz='0 0 1'/> or another direction")
+    unit = found or (0.0, 0.0, 1.0)
     jtype = JointType(kind)
     mimic = el.find("mimic")
     if mimic is not None and jtype.actuated:
@@ -227,9 +278,9 @@ def _joint(el: ET.Element, i: int, file: Path | None, notes: list[str]) -> Joint
             from armctl.config.arm_yaml import origin_from_matrix
             from armctl.spatial import axis_angle_to_matrix, make_transform
 
-            moved = origin.matrix() @ (make_transform(axis_angle_to_matrix(axis, offset))
+            moved = origin.matrix() @ (make_transform(axis_angle_to_matrix(unit, offset))
                                        if jtype is not JointType.PRISMATIC else
-                                       make_transform(pos=[a / norm * offset for a in axis]))
+                                       make_transform(pos=[a * offset for a in unit]))
             origin = origin_from_matrix(moved)
         return JointSpec(name, JointType.FIXED, parent, child, origin, where=where)
     limits = Limits()
@@ -247,7 +298,6 @@ def _joint(el: ET.Element, i: int, file: Path | None, notes: list[str]) -> Joint
     elif jtype is JointType.CONTINUOUS and lim is not None:
         limits = Limits(velocity=_positive(lim, "velocity", where),
                         effort=_positive(lim, "effort", where))
-    unit = (axis[0] / norm, axis[1] / norm, axis[2] / norm) if norm > 0 else (0.0, 0.0, 1.0)
     role = JointRole.GRIPPER if "gripper" in name.lower() or "finger" in name.lower() else (
         JointRole.ARM)
     return JointSpec(name, jtype, parent, child, origin, unit, limits, role, where)
@@ -266,13 +316,12 @@ def _leaves(joints: list[JointSpec], base: str) -> list[str]:
     return leaves or [base]
 
 
-def _depth(joints: list[JointSpec], link: str) -> int:
-    parent = {j.child: j for j in joints}
-    n = 0
-    while link in parent:
-        n += parent[link].type.actuated
-        link = parent[link].parent
-    return n
+def _depths(joints: list[JointSpec]) -> dict[str, int]:
+    """The number of actuated joints between the root and each link (joints parents first)."""
+    depth: dict[str, int] = {}
+    for j in joints:
+        depth[j.child] = depth.get(j.parent, 0) + j.type.actuated
+    return depth
 
 
 def _choose_tip(joints: list[JointSpec], base: str, names: list[str], tip: str | None) -> str:
@@ -281,12 +330,13 @@ def _choose_tip(joints: list[JointSpec], base: str, names: list[str], tip: str |
             raise UnknownNameError("link", tip, names, "the URDF (tip)")
         return tip
     reached = {j.child for j in joints}
+    depth = _depths(joints)
     for match in _TOOL_NAMES:
         found = [n for n in names if n in reached and match(n.lower())]
-        if found:
-            return max(found, key=lambda n: (_depth(joints, n), -found.index(n)))
+        if found:  # the deepest, the first in the file among equals
+            return max(enumerate(found), key=lambda e: (depth.get(e[1], 0), -e[0]))[1]
     leaves = _leaves(joints, base)
-    return max(leaves, key=lambda leaf: (_depth(joints, leaf), -leaves.index(leaf)))
+    return max(enumerate(leaves), key=lambda e: (depth.get(e[1], 0), -e[0]))[1]
 
 
 #: How a link is recognised as the tool frame, best first (names compared in lower case);

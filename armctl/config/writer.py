@@ -7,11 +7,13 @@ written file gives the same kinematics for every frame name of the original.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from armctl.config.arm_yaml import SCHEMA_VERSION, origin_from_matrix
 from armctl.config.schema import (
@@ -28,6 +30,7 @@ from armctl.config.schema import (
     Origin,
     Sphere,
 )
+from armctl.config.source import _EXP_FLOAT
 
 __all__ = ["dump_arm_yaml", "merge_fixed"]
 
@@ -87,6 +90,17 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
+def _text(s: str) -> str:
+    """``s`` as a YAML scalar that reads back as the same string.
+
+    It is quoted when it would read as a number, a boolean or null, or holds characters that
+    YAML gives a meaning (``: # [ ,``).
+    """
+    out = yaml.safe_dump([s], default_flow_style=True, width=math.inf, allow_unicode=True)
+    out = out.strip()[1:-1]
+    return json.dumps(s) if _EXP_FLOAT.match(out) else out  # 1e5: a number to armctl
+
+
 def _vec(v: tuple[float, ...]) -> str:
     return "[" + ", ".join(_num(x) for x in v) + "]"
 
@@ -116,7 +130,7 @@ def _shape(g: Geometry, rel: Path | None) -> str:
                 path = g.path.resolve().relative_to(rel.resolve())
             except ValueError:
                 path = g.path
-        body = f"shape: mesh, path: {str(path)!r}"
+        body = f"shape: mesh, path: {_text(str(path))}"
         if g.scale != (1.0, 1.0, 1.0):
             body += f", scale: {_vec(g.scale)}"
     origin = _origin(g.origin)
@@ -126,8 +140,8 @@ def _shape(g: Geometry, rel: Path | None) -> str:
 
 
 def _joint(j: JointSpec) -> list[str]:
-    lines = [f"  - name: {j.name}", f"    type: {j.type.value}", f"    parent: {j.parent}",
-             f"    child: {j.child}"]
+    lines = [f"  - name: {_text(j.name)}", f"    type: {j.type.value}",
+             f"    parent: {_text(j.parent)}", f"    child: {_text(j.child)}"]
     origin = _origin(j.origin)
     if origin:
         lines.append(f"    origin: {origin}")
@@ -161,15 +175,15 @@ def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "")
     spec = merge_fixed(spec)
     rel = out_file.parent if out_file is not None else None
     lines = [f"# {h}" if h else "#" for h in header.splitlines()]
-    lines += [f"armctl: {SCHEMA_VERSION}", f"name: {spec.name}"]
+    lines += [f"armctl: {SCHEMA_VERSION}", f"name: {_text(spec.name)}"]
     if spec.description:
-        lines.append(f"description: {spec.description!r}")
+        lines.append(f"description: {_text(spec.description)}")
     if spec.source:
-        lines.append(f"source: {spec.source!r}")
-    lines.append(f"base: {spec.base}")
-    lines.append(f"tool: {spec.tool}")
+        lines.append(f"source: {_text(spec.source)}")
+    lines.append(f"base: {_text(spec.base)}")
+    lines.append(f"tool: {_text(spec.tool)}")
     if len(spec.end_effectors) > 1:
-        lines.append(f"end_effectors: [{', '.join(spec.end_effectors)}]")
+        lines.append(f"end_effectors: [{', '.join(_text(e) for e in spec.end_effectors)}]")
     lines.append("joints:")
     for j in spec.joints:
         lines += _joint(j)
@@ -177,12 +191,13 @@ def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "")
         lines.append("frames:")
         for f in spec.frames:
             origin = _origin(f.origin) or "{}"
-            lines.append(f"  - {{name: {f.name}, parent: {f.parent}, origin: {origin}}}")
+            lines.append(f"  - {{name: {_text(f.name)}, parent: {_text(f.parent)}, "
+                         f"origin: {origin}}}")
     shaped = [lk for lk in spec.links if lk.visual or lk.collision]
     if shaped:
         lines.append("links:")
         for lk in shaped:
-            lines.append(f"  - name: {lk.name}")
+            lines.append(f"  - name: {_text(lk.name)}")
             for key, shapes in (("visual", lk.visual), ("collision", lk.collision)):
                 if shapes:
                     lines.append(f"    {key}:")
@@ -190,5 +205,6 @@ def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "")
     if spec.poses:
         lines.append("poses:")
         for name, values in spec.poses.items():
-            lines.append(f"  {name}: {_vec(tuple(values[j.name] for j in spec.actuated_joints))}")
+            row = tuple(values[j.name] for j in spec.actuated_joints)
+            lines.append(f"  {_text(name)}: {_vec(row)}")
     return "\n".join(lines) + "\n"

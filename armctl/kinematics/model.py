@@ -9,7 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.config.schema import ArmSpec, JointRole, JointType
-from armctl.errors import InputError, JointLimitError, UnknownNameError
+from armctl.config.tree import check_arm_size
+from armctl.errors import InputError, JointLimitError, KeyPath, UnknownNameError
 from armctl.kinematics import _kernels as K
 
 __all__ = ["KinematicModel"]
@@ -31,9 +32,14 @@ class KinematicModel:
 
     Args:
         spec: A validated arm description.
+
+    Raises:
+        ConfigError: If the arm has more joints or frames than armctl supports
+            (:data:`armctl.config.tree.MAX_JOINTS`, :data:`armctl.config.tree.MAX_FRAMES`).
     """
 
     def __init__(self, spec: ArmSpec):
+        check_arm_size(len(spec.joints), len(spec.frames), KeyPath(spec.file))
         self.spec = spec
         joints = spec.actuated_joints
         self.name: str = spec.name
@@ -87,23 +93,27 @@ class KinematicModel:
         m = len(names)
         fd = np.zeros((m, 12))
         frame_anchor = np.full(m, -1, dtype=np.int64)
-        paths = np.full((m, max(n, 1)), -1, dtype=np.int64)
+        width = max(n, 1)
+        # the joints from the base to each joint, parents first: the parent's row plus the joint
+        # (one row copy per joint; parents have lower indices than their children)
+        depth = np.zeros(n, dtype=np.int64)
+        joint_paths = np.full((n, width), -1, dtype=np.int64)
+        for i in range(n):
+            p, d = int(parent[i]), 0
+            if p >= 0:
+                d = int(depth[p])
+                joint_paths[i, :d] = joint_paths[p, :d]
+            joint_paths[i, d] = i
+            depth[i] = d + 1
+        paths = np.full((m, width), -1, dtype=np.int64)
         for k, (a, t) in enumerate(offsets):
             fd[k] = t[:3, :4].reshape(12)
             frame_anchor[k] = a
-            chain = []
-            while a >= 0:
-                chain.append(a)
-                a = int(parent[a])
-            paths[k, : len(chain)] = chain[::-1]
-        chains = []
-        for k in range(m):
-            idx = paths[k][paths[k] >= 0].astype(np.int64)
-            rows = np.zeros((idx.size + 1, 16))
-            rows[: idx.size] = jd[idx]
-            rows[idx.size, :12] = fd[k]
-            chains.append((_readonly(rows), _readonly(idx)))
-        self._chains: tuple[tuple[np.ndarray, np.ndarray], ...] = tuple(chains)
+            if a >= 0:
+                paths[k] = joint_paths[a]
+        #: Per frame, the compact rows the single-frame kernels read, built on first use: built
+        #: for every frame at once they would take memory quadratic in the length of a chain.
+        self._chains: list[tuple[np.ndarray, np.ndarray] | None] = [None] * m
         self.frame_names: tuple[str, ...] = tuple(names)
         self._frame_index = {name: i for i, name in enumerate(names)}
         self._jd = _readonly(jd)
@@ -112,6 +122,17 @@ class KinematicModel:
         self._anchor = _readonly(frame_anchor)
         self._paths = _readonly(paths)
         self._tool_index = self._frame_index[spec.tool]
+
+    def _chain_of(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """The kernel rows and joint indices of frame ``k``'s chain (cached)."""
+        found = self._chains[k]
+        if found is None:
+            idx = self._paths[k][self._paths[k] >= 0].astype(np.int64)
+            rows = np.zeros((idx.size + 1, 16))
+            rows[: idx.size] = self._jd[idx]
+            rows[idx.size, :12] = self._fd[k]
+            found = self._chains[k] = (_readonly(rows), _readonly(idx))
+        return found
 
     # ---- lookups ------------------------------------------------------------------------------
     def frame_index(self, frame: str | None) -> int:
@@ -260,7 +281,8 @@ class KinematicModel:
             ``(4, 4)`` pose of the frame in the base frame (translation in [m]). A NaN in ``q``
             gives NaN entries (nothing is commanded from here; commands check their input).
         """
-        rows, idx = self._chains[self.frame_index(frame)]
+        k = self.frame_index(frame)
+        rows, idx = self._chains[k] or self._chain_of(k)
         return K.chain_fk(self._fast_q(q), rows, idx)
 
     def fk_batch(self, qs: npt.ArrayLike, frame: str | None = None) -> Array:
@@ -306,7 +328,8 @@ class KinematicModel:
         Returns:
             ``(6, dof)`` matrix, rows ``[linear [m/rad]; angular [rad/rad]]``.
         """
-        rows, idx = self._chains[self.frame_index(frame)]
+        k = self.frame_index(frame)
+        rows, idx = self._chains[k] or self._chain_of(k)
         return K.chain_jacobian(self._fast_q(q), rows, idx)
 
     def jacobian_batch(self, qs: npt.ArrayLike, frame: str | None = None) -> Array:
@@ -316,7 +339,8 @@ class KinematicModel:
 
     def fk_jacobian(self, q: npt.ArrayLike, frame: str | None = None) -> tuple[Array, Array]:
         """Pose ``(4, 4)`` and Jacobian ``(6, dof)`` of a frame in one pass."""
-        rows, idx = self._chains[self.frame_index(frame)]
+        k = self.frame_index(frame)
+        rows, idx = self._chains[k] or self._chain_of(k)
         pose = np.empty((4, 4))
         jac = np.empty((6, self.dof))
         K.chain_fk_jacobian_into(self._fast_q(q), rows, idx, pose, jac)

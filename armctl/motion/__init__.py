@@ -6,8 +6,8 @@ Pure planning: nothing here talks to servos (:mod:`armctl.robot` streams plans t
 from armctl.motion.errors import LimitViolation, PathError
 from armctl.motion.interpolate import Interpolation, plan_run
 from armctl.motion.keyframe_file import load_keyframes, parse_keyframes, save_keyframes
-from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram
-from armctl.motion.limits import MotionLimits, check_trajectory
+from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram, LengthUnit
+from armctl.motion.limits import MotionLimits, check_speed, check_trajectory
 from armctl.motion.plan import Event, MotionPlan, Waypoint, plan_joint_move
 from armctl.motion.playback import PlaybackOptions, plan_program, resolve_keyframes
 from armctl.motion.profiles import ruckig_move, stop_trajectory
@@ -21,6 +21,7 @@ __all__ = [
     "Interpolation",
     "Keyframe",
     "KeyframeProgram",
+    "LengthUnit",
     "LimitViolation",
     "MotionLimits",
     "MotionPlan",
@@ -29,6 +30,7 @@ __all__ = [
     "PlaybackOptions",
     "Trajectory",
     "Waypoint",
+    "check_speed",
     "check_trajectory",
     "load_keyframes",
     "parse_keyframes",

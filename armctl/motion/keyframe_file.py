@@ -8,34 +8,36 @@ Example::
     calibration: sha256:3f2a...        # optional: calibration the joint values were taught with
     joints: [shoulder_pan, shoulder_lift, elbow_flex, wrist_flex, wrist_roll]
     keyframes:
-      - {name: start, q: [0, -30, 60, 20, 0], dwell: 0.5, gripper: 0.4}
+      - {name: start, q: [0, -30, 60, 20, 0], dwell: 0.5, gripper: 23}   # gripper: 23 deg
       - {name: above_cup, pose: {xyz: [0.22, 0.0, 0.12], rpy: [0, 90, 0]}}
       - {q: [10, -20, 40, 10, 0], time: 1.25}
 
-Joint values ``q`` follow ``joints`` and ``units.angle`` (prismatic joints always in metres);
-``pose`` gives ``xyz`` [m] and ``rpy`` (in ``units.angle``) or ``quat`` ``[w, x, y, z]``
-(with neither, only the position counts, the natural choice for 5-joint arms);
-``gripper`` is in SI units ([rad] or [m]) or a string such as ``"30 deg"``; ``dwell`` and
-``time`` are in seconds. Angles may also be written as strings with a unit (``"15 deg"``).
+The units apply to every value: joint values ``q`` follow ``joints``, in ``units.angle`` for
+rotary joints and ``units.length`` (``m`` or ``mm``) for prismatic ones; ``gripper`` is in the
+unit of the arm's gripper joint (an angle for a rotary gripper, a length for a prismatic one);
+``pose`` gives ``xyz`` (in ``units.length``) and ``rpy`` (in ``units.angle``) or ``quat``
+``[w, x, y, z]`` (with neither, only the position counts, the natural choice for 5-joint arms);
+``dwell`` and ``time`` are in seconds. Any angle or length may also be written as a string with
+its unit (``"15 deg"``, ``"0.3 rad"``, ``"12 mm"``, ``"0.012 m"``).
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-import os
-import tempfile
+import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import yaml
 
-from armctl.config.schema import JointType
+from armctl.atomic_write import write_atomic
+from armctl.config.schema import JointRole, JointType
 from armctl.config.source import Section, load_yaml, parse_yaml
-from armctl.errors import ConfigError, InputError, KeyPath
+from armctl.errors import InputError
 from armctl.kinematics.model import KinematicModel
-from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram
+from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram, LengthUnit
 from armctl.spatial import make_transform, matrix_to_rpy, quat_to_matrix, rpy_to_matrix
 
 __all__ = ["FORMAT_VERSION", "load_keyframes", "parse_keyframes", "save_keyframes",
@@ -45,6 +47,70 @@ FORMAT_VERSION = 1
 _TOP_REQUIRED = ("armctl_keyframes", "arm", "joints", "keyframes")
 _TOP_OPTIONAL = ("units", "calibration", "frame", "description")
 _KF_KEYS = ("name", "q", "pose", "dwell", "gripper", "time")
+_NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
+_ANGLE_TEXT = re.compile(rf"^\s*{_NUMBER}\s*(deg|rad)\s*$")
+_LENGTH_TEXT = re.compile(rf"^\s*{_NUMBER}\s*(mm|m)\s*$")
+
+
+class _Units:
+    """The units of one file: how plain numbers are read and written."""
+
+    def __init__(self, angle: AngleUnit, length: LengthUnit):
+        self.angle = angle
+        self.length = length
+
+    def to_si(self, sec: Section, raw: Any, rotary: bool, *keys: str | int) -> float:
+        """A value of the file in SI units ([rad] or [m]).
+
+        Plain numbers are in the file's unit; strings carry their own (``"15 deg"``,
+        ``"12 mm"``).
+
+        Raises:
+            ConfigError: For anything else, naming the key and the expected unit.
+        """
+        unit = self.angle.value if rotary else self.length.value
+        example = "'15 deg'" if rotary else "'12 mm'"
+        if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+            if not math.isfinite(raw):
+                raise sec.error(f"expected a finite number, found {raw}", *keys)
+            if rotary:
+                return math.radians(raw) if self.angle is AngleUnit.DEG else float(raw)
+            return float(raw) * self.length.metres
+        if isinstance(raw, str):
+            m = (_ANGLE_TEXT if rotary else _LENGTH_TEXT).match(raw)
+            if m:
+                x = float(m.group(1))
+                if rotary:
+                    return math.radians(x) if m.group(2) == "deg" else x
+                return x * (0.001 if m.group(2) == "mm" else 1.0)
+            if (_LENGTH_TEXT if rotary else _ANGLE_TEXT).match(raw):
+                kind = "an angle (rotary joint)" if rotary else "a length (prismatic joint)"
+                raise sec.error(f"{raw!r} has the wrong unit: this value is {kind}", *keys,
+                                fix=f"write a number in {unit} or a string like {example}")
+        found = "a boolean" if isinstance(raw, bool) else (
+            "nothing (null)" if raw is None else f"{type(raw).__name__} {raw!r}")
+        raise sec.error(f"expected a number (in {unit}, the file's unit) or a string like "
+                        f"{example}, found {found}", *keys)
+
+    def angle_out(self, x: float) -> float:
+        """An angle [rad] as written in the file."""
+        return _num(math.degrees(x), 5) if self.angle is AngleUnit.DEG else _num(x)
+
+    def length_out(self, x: float) -> float:
+        """A length [m] as written in the file."""
+        return _num(x / self.length.metres, 7 if self.length is LengthUnit.M else 4)
+
+    def out(self, x: float, rotary: bool) -> float:
+        """A joint value [rad]/[m] as written in the file."""
+        return self.angle_out(x) if rotary else self.length_out(x)
+
+
+def _gripper_rotary(model: KinematicModel) -> bool:
+    """Whether gripper values are angles: the arm's (first) gripper joint is rotary."""
+    for i, role in enumerate(model.joint_roles):
+        if role is JointRole.GRIPPER:
+            return model.joint_types[i] is not JointType.PRISMATIC
+    return True
 
 
 def load_keyframes(path: str | Path, model: KinematicModel) -> KeyframeProgram:
@@ -70,6 +136,10 @@ def parse_keyframes(text: str, model: KinematicModel, file: Path | None = None
 
 
 def _parse(top: Section, model: KinematicModel) -> KeyframeProgram:
+    if "armctl_keyframes" not in top.value and "armctl" in top.value:
+        raise top.error("this is an arm config (armctl YAML), not a keyframe file",
+                        fix="give a keyframe file (written by 'armctl teach', see "
+                            "docs/motion.md); the arm config goes in the CONFIG argument")
     top.check_keys(_TOP_REQUIRED, _TOP_OPTIONAL)
     version = top.integer("armctl_keyframes", lo=1)
     if version > FORMAT_VERSION:
@@ -79,13 +149,13 @@ def _parse(top: Section, model: KinematicModel) -> KeyframeProgram:
     if arm != model.name:
         raise top.error(f"the keyframes were taught on arm {arm!r}, not {model.name!r}", "arm",
                         fix=f"play them on {arm!r}, or change 'arm:' if the arms are the same")
-    unit = AngleUnit.RAD
+    unit, length = AngleUnit.RAD, LengthUnit.M
     if top.has("units"):
         units = top.child("units").mapping()
         units.check_keys([], ["angle", "length"])
         unit = units.choice("angle", AngleUnit, [u.value for u in AngleUnit], AngleUnit.RAD)
-        if units.has("length") and units.string("length") != "m":
-            raise units.error("lengths must be in metres", "length", fix="write 'length: m'")
+        length = units.choice("length", LengthUnit, [u.value for u in LengthUnit], LengthUnit.M)
+    file_units = _Units(unit, length)
     joints = _joint_names(top, model)
     rotary = [model.joint_types[model.joint_index(j)] is not JointType.PRISMATIC for j in joints]
     frame = top.string("frame", required=False)
@@ -94,7 +164,8 @@ def _parse(top: Section, model: KinematicModel) -> KeyframeProgram:
             model.frame_index(frame)
         except InputError as exc:
             raise top.error(str(exc), "frame") from None
-    kfs = [_keyframe(sec.mapping(), len(joints), rotary, unit)
+    grip_rotary = _gripper_rotary(model)
+    kfs = [_keyframe(sec.mapping(), rotary, grip_rotary, file_units)
            for sec in top.list_of("keyframes")]
     times = [kf.time for kf in kfs if kf.time is not None]
     if any(b <= a for a, b in itertools.pairwise(times)):
@@ -104,6 +175,7 @@ def _parse(top: Section, model: KinematicModel) -> KeyframeProgram:
         arm=arm, joints=joints, keyframes=tuple(kfs),
         calibration=top.string("calibration", required=False) or None, frame=frame,
         angle_unit=unit, description=top.string("description", required=False),
+        length_unit=length,
     )
 
 
@@ -125,7 +197,19 @@ def _joint_names(top: Section, model: KinematicModel) -> tuple[str, ...]:
     return tuple(value)
 
 
-def _keyframe(sec: Section, n: int, rotary: list[bool], unit: AngleUnit) -> Keyframe:
+def _values(sec: Section, key: str, rotary: list[bool], units: _Units) -> tuple[float, ...]:
+    """A list with one value per entry of ``rotary``, in SI units."""
+    raw = sec.value[key]
+    n = len(rotary)
+    if not isinstance(raw, list) or len(raw) != n:
+        found = f"a list of {len(raw)} items" if isinstance(raw, list) else type(raw).__name__
+        raise sec.error(f"expected a list of {n} numbers, found {found}", key,
+                        fix=f"write it as [{', '.join(['0'] * n)}]")
+    return tuple(units.to_si(sec, x, r, key, i)
+                 for i, (x, r) in enumerate(zip(raw, rotary, strict=True)))
+
+
+def _keyframe(sec: Section, rotary: list[bool], grip_rotary: bool, units: _Units) -> Keyframe:
     sec.check_keys([], _KF_KEYS)
     if sec.has("q") == sec.has("pose"):
         raise sec.error("a keyframe needs exactly one of 'q' (joint values) or 'pose'",
@@ -133,32 +217,24 @@ def _keyframe(sec: Section, n: int, rotary: list[bool], unit: AngleUnit) -> Keyf
     q = pose = None
     orientation = True
     if sec.has("q"):
-        raw = sec.vector("q", n, angle=True)
-        q = tuple(_to_si(x, raw_v, r, unit)
-                  for x, raw_v, r in zip(raw, sec.value["q"], rotary, strict=False))
+        q = _values(sec, "q", rotary, units)
     else:
         psec = sec.child("pose").mapping()
-        pose = _pose(psec, unit)
+        pose = _pose(psec, units)
         orientation = psec.has("rpy") or psec.has("quat")
     time = sec.number("time", nonnegative=True) if sec.has("time") else None
     return Keyframe(
         q=q, pose=pose, orientation=orientation, name=sec.string("name", required=False),
         dwell=sec.number("dwell", 0.0, nonnegative=True),
-        gripper=sec.number("gripper", angle=True) if sec.has("gripper") else None,
+        gripper=(units.to_si(sec, sec.value["gripper"], grip_rotary, "gripper")
+                 if sec.has("gripper") else None),
         time=time, where=sec.where(),
     )
 
 
-def _to_si(parsed: float, raw: Any, rotary: bool, unit: AngleUnit) -> float:
-    """A plain number in a degree file is degrees for rotary joints; strings carry their unit."""
-    if unit is AngleUnit.DEG and rotary and not isinstance(raw, str):
-        return math.radians(parsed)
-    return parsed
-
-
-def _pose(sec: Section, unit: AngleUnit) -> np.ndarray:
+def _pose(sec: Section, units: _Units) -> np.ndarray:
     sec.check_keys(["xyz"], ["rpy", "quat"])
-    xyz = sec.vector("xyz", 3)
+    xyz = _values(sec, "xyz", [False] * 3, units)
     if sec.has("rpy") and sec.has("quat"):
         raise sec.error("give either 'rpy' or 'quat', not both")
     if sec.has("quat"):
@@ -169,10 +245,8 @@ def _pose(sec: Section, unit: AngleUnit) -> np.ndarray:
                             fix="write a unit quaternion [w, x, y, z]")
         rot = quat_to_matrix(quat / norm)
     else:
-        raw = sec.vector("rpy", 3, (0.0, 0.0, 0.0), angle=True)
-        vals = sec.value.get("rpy") or [0.0, 0.0, 0.0]
-        rpy = [_to_si(x, r, True, unit) for x, r in zip(raw, vals, strict=False)]
-        rot = rpy_to_matrix(rpy)
+        rpy = _values(sec, "rpy", [True] * 3, units) if sec.has("rpy") else (0.0, 0.0, 0.0)
+        rot = rpy_to_matrix(np.array(rpy))
     return make_transform(rot, xyz)
 
 
@@ -183,16 +257,14 @@ def _num(x: float, digits: int = 7) -> float:
 
 
 def to_document(program: KeyframeProgram, model: KinematicModel) -> dict[str, Any]:
-    """The program as plain YAML data (angles in the program's unit)."""
-    deg = program.angle_unit is AngleUnit.DEG
+    """The program as plain YAML data (every value in the program's units)."""
+    units = _Units(program.angle_unit, program.length_unit)
     rotary = [model.joint_types[model.joint_index(j)] is not JointType.PRISMATIC
               for j in program.joints]
-
-    def ang(x: float) -> float:
-        return _num(math.degrees(x), 5) if deg else _num(x)
-
+    grip_rotary = _gripper_rotary(model)
     doc: dict[str, Any] = {"armctl_keyframes": FORMAT_VERSION, "arm": program.arm,
-                           "units": _Flow(angle=program.angle_unit.value, length="m")}
+                           "units": _Flow(angle=program.angle_unit.value,
+                                          length=program.length_unit.value)}
     if program.description:
         doc["description"] = program.description
     if program.calibration:
@@ -206,15 +278,16 @@ def to_document(program: KeyframeProgram, model: KinematicModel) -> dict[str, An
         if kf.name:
             item["name"] = kf.name
         if kf.q is not None:
-            item["q"] = [ang(x) if r else _num(x) for x, r in zip(kf.q, rotary, strict=False)]
+            item["q"] = [units.out(x, r) for x, r in zip(kf.q, rotary, strict=False)]
         elif kf.pose is not None:
-            item["pose"] = _Flow(xyz=[_num(x) for x in kf.pose[:3, 3]])
+            item["pose"] = _Flow(xyz=[units.length_out(x) for x in kf.pose[:3, 3]])
             if kf.orientation:
-                item["pose"]["rpy"] = [ang(x) for x in matrix_to_rpy(kf.pose[:3, :3])]
+                item["pose"]["rpy"] = [units.angle_out(x)
+                                       for x in matrix_to_rpy(kf.pose[:3, :3])]
         if kf.dwell:
             item["dwell"] = _num(kf.dwell, 4)
         if kf.gripper is not None:
-            item["gripper"] = _num(kf.gripper)
+            item["gripper"] = units.out(kf.gripper, grip_rotary)
         if kf.time is not None:
             item["time"] = _num(kf.time, 4)
         items.append(item)
@@ -260,37 +333,3 @@ def save_keyframes(program: KeyframeProgram, path: str | Path, model: KinematicM
     text = "# armctl keyframe program (see docs/motion.md)\n" + yaml.dump(
         to_document(program, model), Dumper=_FlowLists, sort_keys=False, width=100)
     return write_atomic(Path(path), text)
-
-
-def write_atomic(path: Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename.
-
-    Raises:
-        ConfigError: If the folder cannot be written.
-    """
-    folder = path.parent if str(path.parent) else Path(".")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        try:
-            dfd = os.open(folder, os.O_RDONLY)
-        except OSError:
-            return path
-        try:
-            os.fsync(dfd)
-        except OSError:
-            pass
-        finally:
-            os.close(dfd)
-    except OSError as exc:
-        raise ConfigError(f"cannot write the file: {exc}", KeyPath(path),
-                          "check that the folder exists and is writable") from exc
-    return path

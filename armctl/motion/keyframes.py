@@ -13,16 +13,28 @@ import numpy.typing as npt
 
 from armctl.errors import InputError, KeyPath
 
-__all__ = ["AngleUnit", "Keyframe", "KeyframeProgram"]
+__all__ = ["AngleUnit", "Keyframe", "KeyframeProgram", "LengthUnit"]
 
 Array = npt.NDArray[np.float64]
 
 
 class AngleUnit(Enum):
-    """The unit angles are written in, in a keyframe file (lengths are always metres)."""
+    """The unit of every angle in a keyframe file: rotary joints (gripper included) and rpy."""
 
     RAD = "rad"
     DEG = "deg"
+
+
+class LengthUnit(Enum):
+    """The unit of every length in a keyframe file: prismatic joints (gripper included), xyz."""
+
+    M = "m"
+    MM = "mm"
+
+    @property
+    def metres(self) -> float:
+        """One unit in metres."""
+        return 1.0 if self is LengthUnit.M else 0.001
 
 
 @dataclass(frozen=True)
@@ -73,8 +85,9 @@ class KeyframeProgram:
         keyframes: The keyframes, in play order.
         calibration: Hash of the calibration the joint values were recorded with, if known.
         frame: The frame Cartesian keyframes place (the tool when empty).
-        angle_unit: Unit used for angles when the program is written to a file.
+        angle_unit: Unit of angles in the file (values in memory are always SI).
         description: Free text.
+        length_unit: Unit of lengths in the file.
     """
 
     arm: str
@@ -84,6 +97,7 @@ class KeyframeProgram:
     frame: str = ""
     angle_unit: AngleUnit = AngleUnit.RAD
     description: str = ""
+    length_unit: LengthUnit = LengthUnit.M
 
     def __post_init__(self) -> None:
         for k, kf in enumerate(self.keyframes):

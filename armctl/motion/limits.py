@@ -17,7 +17,10 @@ from armctl.motion.trajectory import Chain, RuckigTrajectory, TimeScaled, Trajec
 __all__ = [
     "DEFAULT_ACCELERATION",
     "DEFAULT_VELOCITY",
+    "MAX_RECORDED_SPEED",
+    "MIN_SPEED",
     "MotionLimits",
+    "check_speed",
     "check_trajectory",
 ]
 
@@ -33,6 +36,51 @@ _REL_TOL = 1e-6
 _POS_TOL = 1e-9
 _POSITION_HINT = ("The path swings outside the joint's range: add a keyframe there, stop at "
                   "keyframes, or use linear interpolation")
+
+
+#: Slowest speed factor [-]: slower moves would take hours (and break the trajectory generator).
+MIN_SPEED = 0.01
+#: Fastest speed factor of a recording played by its time stamps [-].
+MAX_RECORDED_SPEED = 4.0
+
+
+def check_speed(speed: float, upper: float = 1.0, what: str = "speed factor") -> float:
+    """A speed factor, checked: a finite number from :data:`MIN_SPEED` to ``upper``.
+
+    The one check of every speed factor (command line, Python API, keyframe playback), so a
+    bad factor is refused before anything is planned or a bus is opened.
+
+    Args:
+        speed: The factor [-]; 1 plans at the joint limits.
+        upper: The largest factor allowed: 1 for moves timed by the joint limits,
+            :data:`MAX_RECORDED_SPEED` for recordings played by their time stamps.
+        what: What the factor is, for the message.
+
+    Returns:
+        ``speed`` as a float.
+
+    Raises:
+        InputError: For NaN, inf, zero, a negative factor, or one outside the range; the
+            message gives the valid range.
+    """
+    try:
+        value = float(speed)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} {speed!r} is not a number; use {MIN_SPEED:g} to "
+                         f"{upper:g}") from None
+    valid = f"the valid range is {MIN_SPEED:g} to {upper:g}"
+    if not math.isfinite(value):
+        raise InputError(f"{what} {value} is not a finite number; {valid}")
+    if value <= 0.0:
+        raise InputError(f"{what} {value:g} must be positive; {valid} (1 = at the limits)")
+    if value < MIN_SPEED:
+        raise InputError(f"{what} {value:g} is too slow: {valid} (below {MIN_SPEED:g} a move "
+                         "would take hours)")
+    if value > upper:
+        above = ("; factors above 1 would exceed the joint limits" if upper == 1.0 else "")
+        raise InputError(f"{what} {value:g} is too fast: {valid}{above}; use {upper:g} or "
+                         "lower")
+    return value
 
 
 @dataclass(frozen=True)
@@ -78,18 +126,17 @@ class MotionLimits:
                    np.array(model.upper, dtype=float), v, a, j)
 
     def scaled(self, speed: float) -> MotionLimits:
-        """Limits for a speed factor in (0, 1]: velocity x s, acceleration x s^2, jerk x s^3.
+        """Limits for a speed factor: velocity x s, acceleration x s^2, jerk x s^3.
 
         Scaling this way slows every planned motion down uniformly in time by ``1 / speed``.
 
+        Args:
+            speed: The factor, :data:`MIN_SPEED` to 1 (see :func:`check_speed`).
+
         Raises:
-            InputError: If ``speed`` is not in (0, 1].
+            InputError: If ``speed`` is not a number from :data:`MIN_SPEED` to 1.
         """
-        if not 0.0 < speed <= 1.0:
-            raise InputError(
-                f"speed factor {speed} is outside (0, 1] for a move timed by the joint limits; "
-                "speeds above 1 would exceed the limits (they apply only to recorded, timed "
-                "keyframes)")
+        speed = check_speed(speed)
         return MotionLimits(self.names, self.lower, self.upper, self.velocity * speed,
                             self.acceleration * speed**2, self.jerk * speed**3)
 

@@ -8,6 +8,7 @@ the dwell, and a gripper change is a separate gripper-only move while the arm ho
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -21,12 +22,19 @@ from armctl.kinematics.model import KinematicModel
 from armctl.motion.errors import LimitViolation
 from armctl.motion.interpolate import Interpolation, plan_run
 from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram
-from armctl.motion.limits import MotionLimits, check_trajectory
+from armctl.motion.limits import (
+    MAX_RECORDED_SPEED,
+    MIN_SPEED,
+    MotionLimits,
+    check_speed,
+    check_trajectory,
+)
 from armctl.motion.plan import Event, MotionPlan, Waypoint
 from armctl.motion.profiles import ruckig_move
 from armctl.motion.trajectory import Chain, Hold, Trajectory
 
-__all__ = ["IKFunction", "PlaybackOptions", "plan_program", "resolve_keyframes"]
+__all__ = ["IKFunction", "PlaybackOptions", "check_keyframe_values", "check_playback_speed",
+           "plan_program", "resolve_keyframes"]
 
 Array = npt.NDArray[np.float64]
 
@@ -48,12 +56,13 @@ class PlaybackOptions:
         interpolation: How keyframes are joined.
         blend: Pass through keyframes without stopping (stops remain at dwells, gripper
             changes and the ends).
-        speed: Speed factor: 0.1-4 for recorded (timed) programs, where it scales the recorded
-            time; (0, 1] otherwise, where it scales the joint limits.
+        speed: Speed factor: 0.01-4 for recordings played by their time stamps, where it
+            scales the recorded time; 0.01-1 otherwise, where it scales the joint limits
+            (see :func:`check_playback_speed`).
         loops: How many times to play the program (>= 1).
         reverse: Play the keyframes in reverse order.
         ease_in: Start with a slow move from the present pose to the first keyframe.
-        ease_in_speed: Speed factor of that move, in (0, 1] (never faster than ``speed`` for
+        ease_in_speed: Speed factor of that move, 0.01-1 (never faster than ``speed`` for
             a program timed by the limits).
         use_times: Follow the recorded time stamps when every keyframe has one.
     """
@@ -68,12 +77,38 @@ class PlaybackOptions:
     use_times: bool = True
 
     def __post_init__(self) -> None:
-        if not 0.1 <= self.speed <= 4.0:
-            raise InputError(f"speed factor {self.speed} is outside 0.1 to 4")
+        check_speed(self.speed, MAX_RECORDED_SPEED)
         if self.loops < 1:
             raise InputError(f"loop count must be at least 1, got {self.loops}")
-        if not 0.0 < self.ease_in_speed <= 1.0:
-            raise InputError(f"ease-in speed {self.ease_in_speed} is outside (0, 1]")
+        check_speed(self.ease_in_speed, 1.0, "ease-in speed factor")
+
+    def timed(self, program: KeyframeProgram) -> bool:
+        """Whether ``program`` plays by its time stamps (else it is timed by the joint limits)."""
+        return self.use_times and program.timed and not self.reverse
+
+
+def check_playback_speed(program: KeyframeProgram, options: PlaybackOptions) -> None:
+    """Refuse a speed factor that does not apply to how ``program`` is timed.
+
+    A recording played by its time stamps takes :data:`MIN_SPEED` to
+    :data:`MAX_RECORDED_SPEED`; every other program is timed by the joint limits and takes
+    :data:`MIN_SPEED` to 1.
+
+    Raises:
+        InputError: For a factor above 1 on a program timed by the limits, saying why.
+    """
+    if options.timed(program) or options.speed <= 1.0:
+        return
+    if not program.timed:
+        why = "its keyframes have no time stamps"
+    elif options.reverse:
+        why = "a recording played in reverse is timed by the joint limits"
+    else:
+        why = "the time stamps are ignored"
+    raise InputError(
+        f"speed factor {options.speed:g} is above 1, which applies only to recordings played "
+        f"by their time stamps; this program is timed by the joint limits ({why}), where the "
+        f"factor is {MIN_SPEED:g} to 1 (1 = at the limits): try --speed 1 or lower")
 
 
 @dataclass(frozen=True)
@@ -153,6 +188,7 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
     options = options or PlaybackOptions()
     if not program.keyframes:
         raise InputError("the keyframe program has no keyframes")
+    check_playback_speed(program, options)
     start = np.asarray(q_start, dtype=float)
     qs = resolve_keyframes(program, model, start, ik)
     for k, (q, kf) in enumerate(zip(qs, program.keyframes, strict=True)):
@@ -169,7 +205,7 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
         for i in [*ends, *(e + 1 for e in ends)]:
             seq[i] = _Stop(seq[i].q, seq[i].name, seq[i].dwell, seq[i].gripper, seq[i].time,
                            True)
-    timed = options.use_times and program.timed and not options.reverse
+    timed = options.timed(program)
     for st in seq:
         limits.check_position(st.q, f"keyframe {st.name}")
     scaled = limits.scaled(min(options.speed, 1.0)) if not timed else limits
@@ -215,13 +251,15 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
         n = check_trajectory(traj, limits, check_jerk=options.interpolation is not
                              Interpolation.CUBIC, hint=hint)
     except LimitViolation as exc:
-        if timed and exc.kind in ("velocity", "acceleration"):
-            ratio = abs(exc.value) / exc.bound
-            power = 1.0 if exc.kind == "velocity" else 0.5
-            best = options.speed / ratio**power
+        if timed and exc.kind in ("velocity", "acceleration", "jerk"):
+            best = _fastest_recorded_speed(traj, limits, options.speed, exc)
+            advice = (f"try --speed {math.floor(best * 0.95 * 100) / 100:.2f} or lower"
+                      if best * 0.95 >= MIN_SPEED else
+                      "the recording is too fast for this arm at any speed factor; play it "
+                      "with --ignore-times (timed by the joint limits)")
             raise LimitViolation(exc.joint, exc.kind, exc.value, exc.bound, exc.time,
                                  f"the recorded timing is too fast at speed {options.speed:g};"
-                                 f" try --speed {best * 0.95:.2f} or lower") from None
+                                 f" {advice}") from None
         raise
     desc = (f"{len(program.keyframes)} keyframes, {options.interpolation.value}, "
             f"{'blended' if options.blend else 'stop at each'}, x{options.loops}")
@@ -229,15 +267,59 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
                       tuple(waypoints), time.perf_counter() - t0, n, desc)
 
 
+def _fastest_recorded_speed(traj: Trajectory, limits: MotionLimits, speed: float,
+                            first: LimitViolation, dt: float = 0.002) -> float:
+    """The largest speed factor at which a recording's timing stays inside the limits [-].
+
+    Played ``k`` times faster, a timed motion has ``k`` times the velocity, ``k^2`` the
+    acceleration and ``k^3`` the jerk, so the worst ratio of each over the whole plan (not only
+    the first violation) gives the factor.
+    """
+    n = max(2, math.ceil(traj.duration / dt) + 1)
+    ts = np.unique(np.concatenate([np.linspace(0.0, traj.duration, n), traj.breakpoints()]))
+    _, qd, qdd = traj.sample_many(ts)
+    worst = max(float(np.max(np.abs(qd) / limits.velocity, initial=0.0)),
+                math.sqrt(float(np.max(np.abs(qdd) / limits.acceleration, initial=0.0))),
+                abs(first.value) / first.bound if first.kind == "velocity" else 0.0,
+                math.sqrt(abs(first.value) / first.bound) if first.kind == "acceleration"
+                else 0.0,
+                (abs(first.value) / first.bound) ** (1 / 3) if first.kind == "jerk" else 0.0)
+    if np.any(np.isfinite(limits.jerk)) and ts.size > 2:
+        dts = np.diff(ts)
+        keep = dts > 1e-6
+        jerk = np.diff(qdd, axis=0)[keep] / dts[keep, None]
+        worst = max(worst, float(np.max(np.abs(jerk) / limits.jerk, initial=0.0)) ** (1 / 3))
+    return speed / worst if worst > 1.0 else speed
+
+
+def check_keyframe_values(program: KeyframeProgram, model: KinematicModel) -> None:
+    """Refuse joint and gripper values of the program outside the limits of ``model``.
+
+    Needs neither the present pose nor IK (pose keyframes are checked when planned), so it
+    runs before a bus is opened.
+
+    Raises:
+        ConfigError: In the file's units, naming the file, line, keyframe, joint and limits.
+    """
+    idx = [model.joint_index(j) for j in program.joints]
+    for k, kf in enumerate(program.keyframes):
+        q = np.full(model.dof, np.nan)
+        if kf.q is not None:
+            q[idx] = kf.q
+        _check_keyframe(program, model, k, kf, q)
+
+
 def _check_keyframe(program: KeyframeProgram, model: KinematicModel, k: int, kf: Keyframe,
                     q: Array) -> None:
     """Refuse a keyframe (or its gripper value) outside the joint limits, naming file and line.
+
+    Entries of ``q`` that are NaN are not checked.
 
     Raises:
         ConfigError: In the file's angle unit, naming the keyframe, the joint and the limits.
     """
     grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
-    checks = [(i, float(q[i]), "") for i in range(model.dof)]
+    checks = [(i, float(q[i]), "") for i in range(model.dof) if not math.isnan(q[i])]
     if kf.gripper is not None:
         checks += [(i, float(kf.gripper), "gripper value for ") for i in grip]
     for i, v, what in checks:
@@ -246,7 +328,7 @@ def _check_keyframe(program: KeyframeProgram, model: KinematicModel, k: int, kf:
             continue
         unit, scale = "rad", 1.0
         if model.joint_types[i] is JointType.PRISMATIC:
-            unit = "m"
+            unit, scale = program.length_unit.value, 1.0 / program.length_unit.metres
         elif program.angle_unit is AngleUnit.DEG:
             unit, scale = "deg", float(np.degrees(1.0))
         source = "" if kf.q is not None else " (IK solution of the pose)"

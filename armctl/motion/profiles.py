@@ -8,6 +8,7 @@ not enforced by the free Ruckig, so callers check the result with
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import numpy.typing as npt
@@ -78,13 +79,54 @@ def ruckig_move(q0: npt.ArrayLike, q1: npt.ArrayLike, limits: MotionLimits, *,
                            else ruckig.Synchronization.Time)
     if min_duration:
         inp.minimum_duration = float(min_duration)
-    traj = ruckig.Trajectory(limits.dof)
+    first = _calculate(inp, limits.dof)
+    if isinstance(first, RuckigTrajectory):
+        return first
+    # Ruckig's step 1 fails on some inputs that sit exactly on the border between two profile
+    # shapes (e.g. a distance of exactly 2 a^3 / j^2 at rest, common with round numbers and
+    # speed factors): the candidates on both sides are rejected by rounding. Limits a hair
+    # lower move the input off that border; the result stays inside the requested limits.
+    for shrink in _RETRY_SHRINK:
+        inp.max_jerk = (limits.jerk * (1.0 - shrink)).tolist()
+        retry = _calculate(inp, limits.dof)
+        if isinstance(retry, RuckigTrajectory):
+            return retry
+    if inp.synchronization == ruckig.Synchronization.Phase:
+        inp.max_jerk = limits.jerk.tolist()
+        inp.synchronization = ruckig.Synchronization.Time  # not a straight line, still in time
+        retry = _calculate(inp, limits.dof)
+        if isinstance(retry, RuckigTrajectory):
+            return retry
+    raise PlanningError(f"the trajectory generator could not plan the move from "
+                        f"{np.round(a, 6).tolist()} to {np.round(b, 6).tolist()}: {first}; "
+                        "nothing was moved. Try another speed factor or an intermediate goal")
+
+
+#: Relative reductions of the jerk limits tried when Ruckig fails on an input [-].
+_RETRY_SHRINK = (1e-9, 1e-6, 1e-3)
+#: Ruckig's result codes that its Python enum does not list.
+_RESULT_CODES = {-101: "the move would last too long for the trajectory generator (more than "
+                       "about 2 hours); use a higher speed factor",
+                 -104: "a velocity, acceleration or jerk limit is zero"}
+
+
+def _calculate(inp: ruckig.InputParameter, dof: int) -> RuckigTrajectory | str:
+    """Run Ruckig once: the trajectory, or why it failed (one line)."""
+    traj = ruckig.Trajectory(dof)
     try:
-        result = ruckig.Ruckig(limits.dof).calculate(inp, traj)
-    except RuntimeError as exc:
-        raise PlanningError(f"the trajectory generator rejected the move: {exc}") from exc
+        result = ruckig.Ruckig(dof).calculate(inp, traj)
+    except ruckig.RuckigError as exc:  # derives from Exception, not RuntimeError
+        lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+        return (lines[0] if lines else "error").removeprefix("[ruckig] ").removesuffix(
+            " input:")
+    except ValueError as exc:  # a result code that the Python enum lacks, e.g. -101
+        code = re.search(r"-?\d+", str(exc))
+        known = _RESULT_CODES.get(int(code.group())) if code else None
+        return known or f"result {exc}"
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
-        raise PlanningError(f"the trajectory generator could not plan the move ({result})")
+        return str(result)
+    if not math.isfinite(traj.duration):
+        return f"duration {traj.duration}"
     return RuckigTrajectory(traj)
 
 
@@ -116,16 +158,14 @@ def stop_trajectory(q: npt.ArrayLike, qd: npt.ArrayLike, qdd: npt.ArrayLike,
     inp.target_velocity = [0.0] * limits.dof
     inp.target_acceleration = [0.0] * limits.dof
     inp.synchronization = ruckig.Synchronization.Time
-    traj = ruckig.Trajectory(limits.dof)
-    try:
-        ruckig.Ruckig(limits.dof).calculate(inp, traj)
-    except RuntimeError:
-        # Fall back to a constant-deceleration stop (acceleration limit, unbounded jerk).
-        t_stop = float(np.max(np.abs(vel) / limits.acceleration))
-        dec = -vel / t_stop if t_stop > 0 else np.zeros_like(vel)
-        coeffs = np.stack([pos, vel, dec / 2.0])[None]
-        return PiecewisePolynomial([0.0, max(t_stop, 1e-6)], coeffs)
-    return RuckigTrajectory(traj)
+    planned = _calculate(inp, limits.dof)
+    if isinstance(planned, RuckigTrajectory):
+        return planned
+    # Fall back to a constant-deceleration stop (acceleration limit, unbounded jerk).
+    t_stop = float(np.max(np.abs(vel) / limits.acceleration))
+    dec = -vel / t_stop if t_stop > 0 else np.zeros_like(vel)
+    coeffs = np.stack([pos, vel, dec / 2.0])[None]
+    return PiecewisePolynomial([0.0, max(t_stop, 1e-6)], coeffs)
 
 
 def min_jerk_duration(distance: npt.ArrayLike, limits: MotionLimits) -> float:

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from armctl.errors import InputError, NoSolutionError
+from armctl.errors import NoSolutionError
 
 if TYPE_CHECKING:
     from armctl.arm import Arm
@@ -98,12 +98,11 @@ def plan_straight_line(arm: Arm, q_start: npt.ArrayLike, goal_pose: npt.ArrayLik
         PathError: If the line cannot be followed (with how far it got).
     """
     from armctl.ik import PoseGoal, PositionGoal
-    from armctl.motion import MotionLimits
+    from armctl.motion import MotionLimits, check_speed
     from armctl.motion.cartesian import LineOptions, plan_line
     from armctl.motion.trajectory import PathTrajectory
 
-    if not 0.0 < speed <= 1.0:
-        raise InputError(f"speed factor {speed} is outside (0, 1]")
+    check_speed(speed)
     q0 = arm.as_q(q_start, "start joints")
     pose = np.asarray(goal_pose, dtype=float)
     goal: Any = PoseGoal(pose) if oriented else PositionGoal(pose[:3, 3])

@@ -1,24 +1,28 @@
 """The top layer: the arm model, IK, motion planning and the servo bus joined together.
 
-:class:`Robot` is the Python API (a context manager that applies the exit policy); the
+:class:`Robot` is the Python API (a context manager that applies the exit policy when its
+block ends normally, and holds the arm when it ends with an exception); the
 :class:`Executor` streams checked plans at a fixed rate and stops safely; :class:`TeachSession`
 records keyframes by hand-guiding or jogging.
 """
 
-from armctl.robot.errors import MotionStopped, StopReason
+from armctl.robot.errors import MotionStopped, SignalInterrupt, StopReason
 from armctl.robot.executor import CycleInfo, Executor, StreamResult, StreamStats
 from armctl.robot.session import MoveReport, Robot
-from armctl.robot.stop import StopRequest, sigint_stops
+from armctl.robot.stop import STOP_SIGNALS, SignalGuard, StopRequest, signals_stop
 
 __all__ = [
+    "STOP_SIGNALS",
     "CycleInfo",
     "Executor",
     "MotionStopped",
     "MoveReport",
     "Robot",
+    "SignalGuard",
+    "SignalInterrupt",
     "StopReason",
     "StopRequest",
     "StreamResult",
     "StreamStats",
-    "sigint_stops",
+    "signals_stop",
 ]

@@ -6,31 +6,45 @@ and measures the tracking error (measured position against the command of the pr
 and the loop jitter (cycle start minus deadline). A late cycle does not make the loop rush: the
 next deadline is the first one still ahead, and the missed ones are counted as overruns.
 
-The loop stops safely on a stop request (Ctrl-C), a servo alarm, a servo that stops answering,
-or a tracking error above the limit: it plans a jerk-limited stop from the commanded state,
-streams it, and holds the final position with torque on.
+The loop stops safely on a stop request (SIGINT/Ctrl-C, SIGTERM, SIGHUP, routed to a
+:class:`StopRequest` while it runs; a ``KeyboardInterrupt`` or error raised by the ``on_cycle``
+callback), a servo alarm, a servo that stops answering, or a tracking error above the limit: it
+plans a jerk-limited stop from the commanded state, streams it, and holds the final position with
+torque on. A second stop request during that deceleration holds at once: the goal becomes the
+present reading.
 """
 
 from __future__ import annotations
 
+import logging
 import math
+import signal
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from armctl.config.schema import JointRole, JointType
 from armctl.errors import ArmctlError, BusError
 from armctl.kinematics.model import KinematicModel
 from armctl.motion import MotionLimits, MotionPlan, Trajectory, stop_trajectory
 from armctl.robot.errors import MotionStopped, StopReason
-from armctl.robot.stop import StopRequest
+from armctl.robot.stop import StopRequest, signals_stop
+from armctl.servo.errors import PortIOError, ServoAlarmError
 
 __all__ = ["BusState", "CycleInfo", "Executor", "JointBus", "StreamResult", "StreamStats"]
 
 Array = npt.NDArray[np.float64]
+
+logger = logging.getLogger(__name__)
+
+#: A motion logs a warning for a servo that needed more retries than this fraction of its
+#: cycles (and at least :data:`RETRY_WARNING_MIN`): an intermittent fault hidden by retries.
+RETRY_WARNING = 0.05
+RETRY_WARNING_MIN = 3
 
 
 class BusState(Protocol):
@@ -60,8 +74,8 @@ class JointBus(Protocol):
         """Positions, velocities, loads, temperatures, voltages and alarms."""
         ...
 
-    def write_joints(self, q: npt.ArrayLike) -> None:
-        """Goal positions, one sync write."""
+    def write_joints(self, q: npt.ArrayLike, *, skip_alarmed: bool = False) -> None:
+        """Goal positions, one sync write (``skip_alarmed``: leave alarmed servos out)."""
         ...
 
     def set_torque(self, on: bool, joints: Sequence[str] | None = None) -> None:
@@ -105,6 +119,8 @@ class StreamStats:
         io_time_mean: Mean time of one write + read [s].
         max_tracking_error: Largest tracking error per bus joint [rad]/[m].
         settle_time: Time after the end of the plan until the servos were within tolerance [s].
+        retries: Failed bus attempts (missing, corrupt or late replies, each retried) per
+            servo id during the motion; only servos with any.
     """
 
     rate_hz: float
@@ -117,6 +133,7 @@ class StreamStats:
     io_time_mean: float
     max_tracking_error: Array
     settle_time: float
+    retries: Mapping[int, int] = field(default_factory=dict)
 
     @property
     def achieved_rate(self) -> float:
@@ -162,16 +179,25 @@ class Executor:
         limits: Hard limits, used for controlled stops.
         rate_hz: Loop rate [Hz].
         max_tracking_error: Stop when |measured - commanded| exceeds this [rad]/[m].
-        settle_tolerance: At the end, wait until every joint is this close to the goal.
+        settle_tolerance: Arrival tolerance of rotary joints [rad]: at the end of a motion
+            every arm joint must come this close to the goal, else the motion fails.
         settle_timeout: Longest wait for that [s].
         lost_after: A servo counts as lost after this many cycles in a row without a reply
             (each read already retries; one slow cycle is not a lost servo).
+        settle_tolerance_linear: Arrival tolerance of prismatic joints [m].
+        explain_short: Called with a joint's name and goal [rad]/[m] when it did not arrive;
+            returns a likely cause to add to the error (or ``None``), e.g. from the servo's
+            registers.
+
+    Gripper joints are not held to the arrival tolerance: a gripper closing on an object
+    stops short of its goal by design.
     """
 
     def __init__(self, bus: JointBus, model: KinematicModel, limits: MotionLimits,
                  rate_hz: float = 50.0, max_tracking_error: float = 0.2,
                  settle_tolerance: float = 0.01, settle_timeout: float = 1.0,
-                 lost_after: int = 3):
+                 lost_after: int = 3, settle_tolerance_linear: float = 0.001,
+                 explain_short: Callable[[str, float], str | None] | None = None):
         self.bus = bus
         self.model = model
         self.limits = limits
@@ -180,8 +206,17 @@ class Executor:
         self.settle_tolerance = settle_tolerance
         self.settle_timeout = settle_timeout
         self.lost_after = lost_after
+        self.explain_short = explain_short
         self.idx = np.array([model.joint_index(n) for n in bus.joint_names], dtype=int)
         self.last_command: Array | None = None
+        prismatic = np.array([model.joint_types[i] is JointType.PRISMATIC for i in self.idx],
+                             dtype=bool)
+        #: Arrival tolerance per bus joint [rad]/[m].
+        self.arrival_tolerance: Array = np.where(prismatic, settle_tolerance_linear,
+                                                 settle_tolerance)
+        #: Bus joints that must arrive (every joint but the grippers).
+        self.must_arrive = np.array([model.joint_roles[i] is not JointRole.GRIPPER
+                                     for i in self.idx], dtype=bool)
 
     # ---- helpers ---------------------------------------------------------------------------
     def _servo_id(self, joint: str) -> int | None:
@@ -200,22 +235,53 @@ class Executor:
                 return str(j.name)
         return None
 
-    def _write(self, q_full: Array) -> Array:
+    def _write(self, q_full: Array, skip_alarmed: bool = False) -> Array:
         cmd = np.clip(q_full[self.idx], self.limits.lower[self.idx], self.limits.upper[self.idx])
-        self.bus.write_joints(cmd)
+        try:
+            if skip_alarmed:  # a stop: goals for every servo but those that reported an alarm
+                self.bus.write_joints(cmd, skip_alarmed=True)
+            else:
+                self.bus.write_joints(cmd)
+        except BusError as exc:
+            raise self._bus_abort(exc) from exc
         self.last_command = cmd
         return cmd
+
+    def _bus_abort(self, exc: BusError) -> _Abort:
+        """The stop for a bus error: the port failed, a servo is alarmed, or it is lost."""
+        if isinstance(exc, PortIOError):
+            return _Abort(StopReason.BUS_IO, str(exc).split("\n")[0])
+        sid = getattr(exc, "servo_id", None)
+        joint = self._joint_of(sid)
+        who = f"servo {sid}" + (f" (joint {joint!r})" if joint else "") if sid is not None \
+            else "the bus"
+        if isinstance(exc, ServoAlarmError):
+            return _Abort(StopReason.SERVO_ERROR, f"{who}: {exc}", joint, sid)
+        return _Abort(StopReason.LOST_SERVO, f"{who} stopped answering: {exc}", joint, sid)
+
+    def _retry_counts(self) -> dict[int, int]:
+        counts = getattr(self.bus, "retry_counts", None)
+        return dict(counts()) if callable(counts) else {}
+
+    def _retries_since(self, before: Mapping[int, int], cycles: int) -> dict[int, int]:
+        """Failed bus attempts per servo since ``before``; warns past :data:`RETRY_WARNING`."""
+        now = self._retry_counts()
+        out = {sid: n - before.get(sid, 0) for sid, n in sorted(now.items())
+               if n > before.get(sid, 0)}
+        for sid, n in out.items():
+            if n >= max(RETRY_WARNING_MIN, RETRY_WARNING * cycles):
+                joint = self._joint_of(sid)
+                logger.warning("servo %d%s needed %d retries in %d cycles: its replies are "
+                               "missing, corrupt or late; check its cable, connectors and "
+                               "power supply", sid, f" (joint {joint!r})" if joint else "", n,
+                               cycles)
+        return out
 
     def _read(self) -> Array:
         try:
             state = self.bus.read_state()
         except BusError as exc:
-            sid = getattr(exc, "servo_id", None)
-            joint = self._joint_of(sid)
-            who = f"servo {sid}" + (f" (joint {joint!r})" if joint else "") if sid is not None \
-                else "the bus"
-            raise _Abort(StopReason.LOST_SERVO, f"{who} stopped answering: {exc}", joint,
-                         sid) from exc
+            raise self._bus_abort(exc) from exc
         for name, alarms in zip(self.bus.joint_names, state.errors, strict=False):
             if alarms:
                 sid = self._servo_id(name)
@@ -230,22 +296,38 @@ class Executor:
             record: bool = False) -> StreamResult:
         """Stream a plan; return when the servos have settled at its end.
 
+        While it runs (in the main thread), SIGINT, SIGTERM and SIGHUP are routed to ``stop``
+        (:func:`~armctl.robot.stop.signals_stop`): the first decelerates and holds, a second
+        holds at once.
+
         Args:
             plan: A checked plan starting at the present position.
-            stop: Stop requests (Ctrl-C) to watch.
-            on_cycle: Called after every cycle (keep it fast).
+            stop: Stop requests to watch.
+            on_cycle: Called after every cycle (keep it fast). A ``KeyboardInterrupt`` it
+                raises is a stop request; another exception stops the arm the same way and is
+                raised again once the arm holds.
             record: Keep every command and measurement in the result.
 
         Returns:
             Timing and tracking figures and the final measured position.
 
         Raises:
-            MotionStopped: After a controlled stop, for a stop request, a servo alarm, a lost
-                servo or a tracking error; the arm holds where the stop ended.
+            MotionStopped: After a controlled stop, for a stop request (signal or
+                ``KeyboardInterrupt``), a servo alarm, a lost servo or a tracking error; the
+                arm holds where the stop ended.
         """
         stop = stop or StopRequest()
+        if self.last_command is None:  # nothing commanded yet: torque on, holding, first
+            self.hold()
+        with signals_stop(stop):
+            return self._stream(plan, stop, on_cycle, record)
+
+    def _stream(self, plan: MotionPlan, stop: StopRequest,
+                on_cycle: Callable[[CycleInfo], None] | None, record: bool) -> StreamResult:
+        """The loop of :meth:`run` (signals already routed to ``stop``)."""
         traj: Trajectory = plan.trajectory
         dt = 1.0 / self.rate_hz
+        retries0 = self._retry_counts()
         jitter: list[float] = []
         io: list[float] = []
         log_t: list[float] = []
@@ -258,6 +340,8 @@ class Executor:
         abort: _Abort | None = None
         blind = False  # after a lost servo: keep writing, stop reading
         missed_reads = 0
+        failure: BaseException | None = None  # raised by on_cycle
+        frozen = False  # a second stop request: held at once
         t0 = last_start = time.perf_counter()
         k = 0
         while True:
@@ -276,9 +360,18 @@ class Executor:
                 late = start - deadline
             jitter.append(max(late, 0.0))
             t = k * dt
+            if stop.escalated:
+                if abort is None:
+                    abort = _Abort(StopReason.USER, f"stopped by {stop.reason}")
+                logger.warning("second stop request: holding at once at the present position")
+                self._freeze(blind)
+                frozen = True
+                break
             if stopping is None and (stop.requested or abort is not None):
                 if abort is None:
-                    abort = _Abort(StopReason.USER, "stopped by the user (Ctrl-C)")
+                    abort = _Abort(StopReason.USER, f"stopped by {stop.reason}")
+                    logger.warning("%s: decelerating within the joint limits, then holding "
+                                   "(a second one holds at once)", stop.reason)
                 q, qd, qdd = traj.sample(min(t, traj.duration))
                 stopping = (stop_trajectory(q, qd, qdd, self.limits), min(t, traj.duration))
             if stopping is not None:
@@ -289,10 +382,13 @@ class Executor:
                 q_full = traj.sample(t)[0]
                 finished = t >= traj.duration
             try:
-                cmd = self._write(q_full)
+                cmd = self._write(q_full, skip_alarmed=stopping is not None)
                 meas = self._read() if not blind else cmd
                 missed_reads = 0
             except _Abort as exc:
+                if exc.reason is StopReason.BUS_IO:  # nothing more can be sent or read
+                    abort, blind = exc, True
+                    break
                 lost = exc.reason is StopReason.LOST_SERVO
                 missed_reads += 1
                 if stopping is not None:  # already stopping: keep going, blind if need be
@@ -322,8 +418,22 @@ class Executor:
                                f"{self.max_tracking_error:.3f}; blocked or overloaded?",
                                name, self._servo_id(name))
             if on_cycle is not None:
-                on_cycle(CycleInfo(t, traj.duration, cmd, meas, float(np.max(err, initial=0.0)),
-                                   stopping is not None))
+                try:
+                    on_cycle(CycleInfo(t, traj.duration, cmd, meas,
+                                       float(np.max(err, initial=0.0)), stopping is not None))
+                except BaseException as exc:  # Ctrl-C, or an error in the caller's callback
+                    if isinstance(exc, KeyboardInterrupt):
+                        stop.request("Ctrl-C (KeyboardInterrupt)", signal.SIGINT)
+                        failure = failure or exc
+                    else:
+                        on_cycle = None  # it failed: stop without calling it again
+                        if abort is None:
+                            abort = _Abort(StopReason.USER, f"the on_cycle callback raised "
+                                           f"{type(exc).__name__}: {exc}")
+                            failure = exc
+                        else:
+                            logger.warning("the on_cycle callback raised %s: %s",
+                                           type(exc).__name__, exc)
             k += 1
             if finished and abort is None:
                 break
@@ -333,35 +443,54 @@ class Executor:
         settle = 0.0
         final_cmd = self.last_command if self.last_command is not None else np.zeros(0)
         meas_final = final_cmd
-        if not blind:
-            settle, meas_final = self._settle(final_cmd)
+        if frozen and not blind:
+            settle, meas_final = self._await_rest(final_cmd)
+        elif not blind:
+            settle, meas_final = self._settle(final_cmd, require=abort is None)
         jit = np.array(jitter) if jitter else np.zeros(1)
         stats = StreamStats(
             rate_hz=self.rate_hz, cycles=len(jitter), elapsed=elapsed,
             jitter_mean=float(jit.mean()), jitter_p99=float(np.percentile(jit, 99)),
             jitter_max=float(jit.max()), overruns=overruns,
             io_time_mean=float(np.mean(io)) if io else math.nan, max_tracking_error=worst,
-            settle_time=settle)
+            settle_time=settle, retries=self._retries_since(retries0, len(jitter)))
         final = plan.trajectory.end.copy()
         final[self.idx] = meas_final
         if abort is not None:
             held = plan.trajectory.end.copy()
             held[self.idx] = final_cmd
-            t_stop = stopping[1] if stopping is not None else 0.0
+            t_stop = stopping[1] if stopping is not None else min(k * dt, traj.duration)
             suffix = ("; the arm decelerated and holds its position" if not blind else
                       "; the other servos decelerated and hold their position")
+            if abort.reason is StopReason.BUS_IO:
+                suffix = "; nothing more could be sent: each servo holds the last goal it got"
+            if frozen:
+                suffix = ("; a second stop request held it at once at its present position"
+                          if not blind else "; a second stop request held the other servos "
+                          "at once")
+            if failure is not None and not isinstance(failure, KeyboardInterrupt):
+                logger.warning("%s%s", abort.message, suffix)
+                raise failure
             raise MotionStopped(abort.reason, abort.message + suffix, abort.joint,
-                                abort.servo_id, held, t_stop)
+                                abort.servo_id, held, t_stop,
+                                stop.signum if abort.reason is StopReason.USER else None
+                                ) from failure
         return StreamResult(stats, final, np.array(log_t), np.array(log_c), np.array(log_m))
 
-    def _settle(self, goal: Array) -> tuple[float, Array]:
+    def _settle(self, goal: Array, require: bool = True) -> tuple[float, Array]:
         """Keep holding ``goal`` until the servos are within tolerance (or time out).
+
+        Args:
+            goal: The final command (bus joint order).
+            require: Fail if a joint (other than a gripper) has not arrived by the timeout.
 
         Returns:
             The time it took [s] and the last measured position (never the goal itself).
 
         Raises:
-            MotionStopped: For a servo alarm, or a servo lost for ``lost_after`` reads.
+            MotionStopped: For a servo alarm, a servo lost for ``lost_after`` reads, or (with
+                ``require``) a joint short of its goal (reason ``NOT_REACHED``), naming the
+                joint, its servo, how far short it is and a likely cause.
         """
         t0 = time.perf_counter()
         dt = 1.0 / self.rate_hz
@@ -378,12 +507,100 @@ class Executor:
                                         "its motion", exc.joint, exc.servo_id, goal) from None
                 time.sleep(dt)
                 continue
-            if goal.size == 0 or float(np.max(np.abs(meas - goal))) <= self.settle_tolerance:
+            short = (np.abs(meas - goal) > self.arrival_tolerance) & self.must_arrive
+            if goal.size == 0 or not short.any():
                 return time.perf_counter() - t0, meas
             if time.perf_counter() - t0 > self.settle_timeout:
+                if require:
+                    raise self._not_reached(goal, meas, short, time.perf_counter() - t0)
                 return time.perf_counter() - t0, meas
             time.sleep(dt)
             self.bus.write_joints(goal)
+
+    def _not_reached(self, goal: Array, meas: Array, short: npt.NDArray[np.bool_],
+                     waited: float) -> MotionStopped:
+        """The error for joints that stopped short of the goal at the end of a motion."""
+        load: Array | None = None
+        try:
+            load = np.asarray(getattr(self.bus.read_state(), "load", None), dtype=float)
+        except (BusError, TypeError, ValueError):
+            load = None
+        gap = np.where(short, np.abs(meas - goal), 0.0)
+        j = int(np.argmax(gap))
+        name = self.bus.joint_names[j]
+        sid = self._servo_id(name)
+        i = int(self.idx[j])
+        servo = f" (servo {sid})" if sid is not None else ""
+        text = (f"joint {name!r}{servo} stopped {self._shown(i, gap[j])} short of its "
+                f"goal: it is at {self._shown(i, meas[j])}, the goal is "
+                f"{self._shown(i, goal[j])} (tolerance "
+                f"{self._shown(i, float(self.arrival_tolerance[j]))}), {waited:.1f} s "
+                "after the end of the motion; the move did not arrive")
+        others = [f"{self.bus.joint_names[k]} {self._shown(int(self.idx[k]), gap[k])}"
+                  for k in np.flatnonzero(short) if k != j]
+        if others:
+            text += f" (also short: {', '.join(others)})"
+        cause = self.explain_short(name, float(goal[j])) if self.explain_short else None
+        if cause is None:
+            reading = (f" (present load reading {load[j]:.2f})"
+                       if load is not None and load.shape == goal.shape else "")
+            cause = ("Likely cause: something blocks the joint or it carries more than the "
+                     f"servo can hold{reading}, or the servo's own Min/Max Position Limit "
+                     "register stops it. Check for an obstacle and the load, and compare the "
+                     "registers with 'armctl status'.")
+        return MotionStopped(StopReason.NOT_REACHED, f"{text}. {cause} Torque stays on with "
+                             "the goal commanded.", name, sid, goal)
+
+    def _shown(self, i: int, value: float) -> str:
+        """A joint value or distance for a message: degrees (rotary) or millimetres."""
+        if self.model.joint_types[i] is JointType.PRISMATIC:
+            return f"{value * 1000:.2f} mm"
+        return f"{math.degrees(value):.2f} deg"
+
+    def _freeze(self, blind: bool) -> None:
+        """Hold at once: goal = present reading (torque stays on; never outside the limits).
+
+        Where the servos cannot be read (``blind``, or the read fails), the last command is held.
+        """
+        q = self.last_command
+        if not blind:
+            try:
+                q = np.asarray(self.bus.read_joints(), dtype=float)
+            except BusError as exc:
+                logger.warning("could not read the servos to hold them (%s); holding the last "
+                               "command", exc)
+        if q is None:
+            return
+        full = np.zeros(self.model.dof)
+        full[self.idx] = q
+        try:
+            self._write(full, skip_alarmed=True)  # nothing to a servo that reported an alarm
+        except _Abort as exc:
+            logger.warning("could not hold the servos at once: %s", exc.message)
+
+    def _await_rest(self, goal: Array) -> tuple[float, Array]:
+        """After a freeze: wait (at most ``settle_timeout``) until the servos are at rest.
+
+        A servo held while moving brakes past its goal and comes back to it, so the position
+        alone does not tell rest: the readings must also stop changing.
+
+        Returns:
+            The time it took [s] and the last reading (the goal when the servos cannot be read).
+        """
+        t0 = time.perf_counter()
+        dt = 1.0 / self.rate_hz
+        last = goal
+        while time.perf_counter() - t0 < self.settle_timeout:
+            time.sleep(dt)
+            try:
+                meas = np.asarray(self.bus.read_joints(), dtype=float)
+            except BusError:
+                break
+            still = float(np.max(np.abs(meas - last), initial=0.0)) < 0.2 * self.settle_tolerance
+            last = meas
+            if still and float(np.max(np.abs(meas - goal), initial=0.0)) <= self.settle_tolerance:
+                break
+        return time.perf_counter() - t0, last
 
     def hold(self) -> Array:
         """Hold the present position: goal = present, then torque on (never a jump).

@@ -7,13 +7,15 @@ Example::
     with Robot.open("so101", speed=0.5) as robot:       # port 'sim' runs the simulated bus
         robot.move_to_pose(xyz=[0.2, 0.0, 0.15])
         robot.home()
-    # leaving the block applies the exit policy (hold by default: torque stays on)
+    # leaving the block normally applies the exit policy (hold by default: torque stays on);
+    # leaving it with an exception (a stop, Ctrl-C, an error) holds the arm where it is
 """
 
 from __future__ import annotations
 
-import sys
-from collections.abc import Callable, Sequence
+import logging
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -24,7 +26,7 @@ import numpy.typing as npt
 from armctl.arm import Arm, load_arm
 from armctl.config.motion import ExitPolicy, MotionSpec
 from armctl.config.schema import JointRole
-from armctl.errors import ArmctlError, InputError, JointLimitError
+from armctl.errors import ArmctlError, InputError
 from armctl.ik import Goal, IKResult, PositionGoal
 from armctl.ik.errors import IKFailedError
 from armctl.motion import (
@@ -36,17 +38,21 @@ from armctl.motion import (
     plan_program,
 )
 from armctl.motion.cartesian import LineOptions, plan_line
+from armctl.motion.errors import LimitViolation
 from armctl.robot.errors import MotionStopped
 from armctl.robot.executor import CycleInfo, Executor, JointBus, StreamResult
-from armctl.robot.stop import StopRequest, ignore_sigint, sigint_stops
+from armctl.robot.stop import StopRequest, signals_stop
 
 if TYPE_CHECKING:
     from armctl.robot.teach import TeachSession
     from armctl.servo.calibration import Calibration
+    from armctl.servo.effective_limits import EffectiveLimits
 
 __all__ = ["MoveReport", "Robot"]
 
 Array = npt.NDArray[np.float64]
+
+logger = logging.getLogger(__name__)
 
 #: Largest distance [rad]/[m] between a plan's start and the present position for it to be run.
 _START_TOLERANCE = 0.05
@@ -79,7 +85,9 @@ class Robot:
     """An arm with its servo bus: plans, streams, stops safely and applies an exit policy.
 
     Build one with :meth:`open` (which opens the bus and holds the present pose with torque on)
-    and use it as a context manager so that the exit policy is applied on the way out.
+    and use it as a context manager: leaving the block normally applies the exit policy;
+    leaving it with an exception (a stopped motion, Ctrl-C, an error) holds the arm where it is
+    and never parks or releases it.
 
     Args:
         arm: The arm model.
@@ -87,21 +95,33 @@ class Robot:
         motion: Motion defaults (rate, speed, tracking limit, exit policy).
         speed: Default speed factor (overrides ``motion.speed``).
         exit_policy: Exit policy (overrides ``motion.exit_policy``).
+        effective: The effective joint limits; by default they are built from the config, the
+            bus's calibration and the servos' position limit registers (read from the bus).
+
+    Attributes:
+        arm: The arm with the effective limits as its position limits: every planner, IK
+            solve, jog and playback of this robot stays inside them.
+        config_arm: The arm as configured (its limits are the config's).
+        effective: The effective limits, with the source of every bound.
     """
 
     def __init__(self, arm: Arm, bus: JointBus, motion: MotionSpec | None = None, *,
-                 speed: float | None = None, exit_policy: ExitPolicy | None = None):
-        self.arm = arm
+                 speed: float | None = None, exit_policy: ExitPolicy | None = None,
+                 effective: EffectiveLimits | None = None):
+        self.config_arm = arm
         self.bus = bus
+        self.effective = effective if effective is not None else _effective_limits(arm, bus)
+        self.arm = self.effective.apply(arm)
         self.motion = motion or arm.spec.motion or MotionSpec()
         self.speed = float(speed if speed is not None else min(self.motion.speed, 1.0))
         self.exit_policy = exit_policy or self.motion.exit_policy
-        self.limits = MotionLimits.from_model(arm)
-        self.executor = Executor(bus, arm, self.limits, self.motion.rate_hz,
-                                 self.motion.max_tracking_error)
+        self.limits = MotionLimits.from_model(self.arm)
+        self.executor = Executor(bus, self.arm, self.limits, self.motion.rate_hz,
+                                 self.motion.max_tracking_error,
+                                 explain_short=self._short_cause)
         self.stop = StopRequest()
         # Joints without a servo (if any) are taken to stay at zero, clipped into their limits.
-        self._q = np.clip(np.zeros(arm.dof), arm.lower, arm.upper)
+        self._q = np.clip(np.zeros(arm.dof), self.arm.lower, self.arm.upper)
         self._closed = False
         self._owns_bus = False
 
@@ -115,11 +135,15 @@ class Robot:
             config: Arm YAML path, bundled name, or an :class:`Arm`.
             speed: Default speed factor in (0, 1].
             exit_policy: What to do at the end (default from the config: hold).
-            hold: Switch torque on, holding the present pose (no jump).
+            hold: Switch torque on, holding the present pose (no jump). Without it nothing is
+                written until the first motion, which holds the present pose first: a plan can
+                be checked (and refused) before torque comes on.
 
         Raises:
             ConfigError: Bad config or calibration file.
             BusError: The bus cannot be opened or a servo is missing.
+            JointLimitError: With ``hold``, a joint further outside its effective limits than
+                encoder noise (move it inside by hand with torque off).
         """
         from armctl.servo.arm_bus import ArmBus
 
@@ -140,17 +164,25 @@ class Robot:
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, *exc: object) -> None:
-        try:
+        if exc_type is None:
             self.close()
-        except ArmctlError as failure:
-            if exc_type is None:
-                raise
-            # Do not hide the error that ended the block; report the failed exit policy too.
-            print(f"armctl: exit policy {self.exit_policy.value!r} failed: {failure}",
-                  file=sys.stderr)
+            return
+        # A stop, Ctrl-C or an error ended the block: hold, never a surprise drive to park.
+        if self.exit_policy is not ExitPolicy.HOLD and not self._closed:
+            logger.warning("the block ended with %s: holding the arm where it is (exit policy "
+                           "%r not applied)", exc_type.__name__, self.exit_policy.value)
+        try:
+            self.close(ExitPolicy.HOLD)
+        except ArmctlError as failure:  # do not hide the error that ended the block
+            logger.warning("closing the bus failed: %s", failure)
 
     def close(self, policy: ExitPolicy | None = None) -> None:
-        """Apply the exit policy and close the bus (if this robot opened it)."""
+        """Apply an exit policy and close the bus (if this robot opened it).
+
+        Args:
+            policy: The policy to apply (default: the robot's :attr:`exit_policy`). An explicit
+                policy is applied even after a stopped motion.
+        """
         if self._closed:
             return
         self._closed = True
@@ -161,19 +193,22 @@ class Robot:
                 self.bus.close()  # type: ignore[attr-defined]
 
     def apply_exit_policy(self, policy: ExitPolicy) -> None:
-        """Hold (torque stays on), park (move to the 'park' pose, then hold) or release."""
+        """Hold (torque stays on), park (move to the 'park' pose, then hold) or release.
+
+        Parking is a motion like any other: a stop signal during it decelerates and holds.
+
+        Raises:
+            MotionStopped: Parking was stopped; the arm holds where it stopped.
+        """
         if policy is ExitPolicy.PARK:
             if "park" not in self.arm.spec.poses:
-                print(f"armctl: arm {self.arm.name!r} has no 'park' pose; holding instead",
-                      file=sys.stderr)
+                logger.warning("arm %r has no 'park' pose; holding instead", self.arm.name)
                 return
-            self.stop.clear()
-            with ignore_sigint("parking"):
-                plan = self.plan_joints(self.arm.named_pose("park"), min(self.speed, 0.5),
-                                        "park (exit policy)")
-                self.executor.run(plan, StopRequest())
+            plan = self.plan_joints(self.arm.named_pose("park"), min(self.speed, 0.5),
+                                    "park (exit policy)")
+            self.execute(plan)
         elif policy is ExitPolicy.RELEASE:
-            print("armctl: releasing torque: a raised arm will fall", file=sys.stderr)
+            logger.warning("releasing torque: a raised arm will fall")
             self.bus.set_torque(False)
 
     @property
@@ -193,28 +228,63 @@ class Robot:
         return self.arm.fk(self.joints(), frame)
 
     def hold(self) -> Array:
-        """Hold the present pose: goal = present position, then torque on."""
+        """Hold the present pose: goal = present position, then torque on.
+
+        Raises:
+            JointLimitError: A joint is further outside its effective limits than encoder
+                noise; nothing was written (move it inside by hand with torque off).
+        """
+        self.plan_start()  # never command a goal outside the effective limits
         self.executor.hold()
         return self.joints()
+
+    def _short_cause(self, joint: str, goal: float) -> str | None:
+        """Why a joint stopped short of ``goal``, when its servo's registers tell.
+
+        Returns:
+            A sentence when the servo's position limit registers (read again now) exclude the
+            goal, else ``None``.
+        """
+        from armctl.servo.arm_bus import ArmBus
+        from armctl.servo.effective_limits import format_joint_value, limits_of_bus
+
+        if not isinstance(self.bus, ArmBus):
+            return None
+        try:
+            now = limits_of_bus(self.config_arm.spec, self.bus).joint(joint)
+        except ArmctlError:
+            return None
+        if now.register is None or now.register_ticks is None or \
+                now.register[0] <= goal <= now.register[1]:
+            return None
+        lo, hi = (format_joint_value(v, now.joint_type) for v in now.register)
+        return (f"Likely cause: servo {now.servo_id}'s own position limit registers (Min/Max "
+                f"Position Limit: {now.register_ticks[0]}..{now.register_ticks[1]} ticks) allow "
+                f"only {lo} to {hi}, which excludes the goal, so the servo stops at its limit. "
+                "They differ from when the robot was opened (its effective limits were read "
+                "then): open it again to plan inside them, or write wider values to the "
+                "registers (torque off).")
 
     # ---- planning -----------------------------------------------------------------------------
     def plan_start(self) -> Array:
         """The present joints as the start of a plan.
 
-        A reading just outside a limit (up to :data:`_OUTSIDE_TOLERANCE`, encoder noise or a
-        joint pushed against its stop) is taken as the limit itself.
+        A reading just outside an effective limit (up to :data:`_OUTSIDE_TOLERANCE`, encoder
+        noise, the safety margin of a joint resting at its calibrated stop) is taken as the
+        limit itself.
 
         Raises:
-            JointLimitError: If a joint is further outside its limits; nothing moves.
+            JointLimitError: If a joint is further outside its effective limits (naming the
+                limit's source); nothing moves.
         """
         q = self.joints()
         lo, hi = self.arm.lower, self.arm.upper
         out = np.maximum(lo - q, q - hi)
         if float(np.max(out, initial=0.0)) > _OUTSIDE_TOLERANCE:
             i = int(np.argmax(out))
-            raise JointLimitError(self.arm.joint_names[i], float(q[i]), float(lo[i]),
-                                  float(hi[i]), "present position: move the joint inside by hand "
-                                  "with torque off, or check the calibration")
+            raise self.effective.error(self.arm.joint_names[i], float(q[i]),
+                                       "present position: move the joint inside by hand with "
+                                       "torque off")
         return np.clip(q, lo, hi)
 
     def _speed(self, speed: float | None) -> float:
@@ -222,10 +292,30 @@ class Robot:
 
     def plan_joints(self, q: npt.ArrayLike, speed: float | None = None,
                     description: str = "joint move") -> MotionPlan:
-        """A checked joint move from the present position."""
-        goal = self.arm.check_limits(q, "goal of the move")
-        return plan_joint_move(self.plan_start(), goal, self.limits, self._speed(speed),
-                               description)
+        """A checked joint move from the present position.
+
+        Raises:
+            JointLimitError: A goal outside the effective limits, naming the limit's source
+                (config, calibration or servo register) and how to change it; nothing moves.
+        """
+        goal = self.effective.check(self.arm.as_q(q, "goal of the move"), "goal of the move")
+        with self._limit_sources():
+            return plan_joint_move(self.plan_start(), goal, self.limits, self._speed(speed),
+                                   description)
+
+    @contextmanager
+    def _limit_sources(self) -> Iterator[None]:
+        """Re-raise a planned position beyond a limit with the source of that limit."""
+        try:
+            yield
+        except LimitViolation as exc:
+            if exc.kind != "position" or exc.joint not in self.effective.names:
+                raise
+            raise LimitViolation(exc.joint, exc.kind, exc.value, exc.bound, exc.time,
+                                 "The path swings outside the joint's effective range: add a "
+                                 "keyframe there, stop at keyframes, or use linear "
+                                 "interpolation. "
+                                 + self.effective.explain(exc.joint, exc.value)) from None
 
     def solve(self, goal: Goal, solver: str = "auto", q0: npt.ArrayLike | None = None
               ) -> IKResult:
@@ -242,6 +332,11 @@ class Robot:
             if not isinstance(goal, PositionGoal):
                 advice += ", or give fewer orientation constraints"
             advice += "."
+            narrowed = self.effective.narrowed()
+            if narrowed:
+                which = ", ".join(f"{n} ({'/'.join(s)})" for n, s in narrowed.items())
+                advice += (" IK searched inside the effective limits, narrower than the "
+                           f"config for: {which} (see 'armctl status').")
             details = {"status": res.status.value, "solver": res.solver,
                        "closest_q": np.asarray(res.q, dtype=float),
                        "closest_joints": self.arm.values_by_name(res.q),
@@ -264,8 +359,9 @@ class Robot:
         """
         start = self.plan_start()
         if linear:
-            plan = plan_line(self.arm, start, goal, self.limits, self._speed(speed),
-                             LineOptions(solver=solver))
+            with self._limit_sources():
+                plan = plan_line(self.arm, start, goal, self.limits, self._speed(speed),
+                                 LineOptions(solver=solver))
             return plan, None
         res = self.solve(goal, solver, start)
         # Keep joints the goal does not involve (the gripper) where they are.
@@ -274,18 +370,24 @@ class Robot:
         for i in range(self.arm.dof):
             if i not in moving:
                 q[i] = start[i]
-        return plan_joint_move(start, q, self.limits, self._speed(speed), "move to pose"), res
+        q = self.effective.check(q, "IK solution of the goal")
+        with self._limit_sources():
+            plan = plan_joint_move(start, q, self.limits, self._speed(speed), "move to pose")
+        return plan, res
 
     # ---- moving -------------------------------------------------------------------------------
     def execute(self, plan: MotionPlan, on_cycle: Callable[[CycleInfo], None] | None = None,
                 record: bool = False) -> StreamResult:
-        """Stream a plan, stopping safely on Ctrl-C or a fault.
+        """Stream a plan, stopping safely on a stop signal or a fault.
 
-        A second Ctrl-C during the stop applies the exit policy once the arm is at rest.
+        SIGINT (Ctrl-C), SIGTERM and SIGHUP (main thread), or a ``KeyboardInterrupt`` raised by
+        ``on_cycle``, decelerate the arm within its limits and hold it; a second one during the
+        deceleration holds at once. The exit policy is not applied.
 
         Raises:
-            MotionStopped: The motion was stopped; the arm holds its position (or the exit
-                policy was applied after a second Ctrl-C).
+            MotionStopped: The motion was stopped; the arm holds its position, and
+                ``stopped_at`` (also in ``details``) says where: the joints read back and the
+                tool pose.
         """
         q_now = self.joints()
         gap = np.abs(q_now[self.executor.idx] - plan.start[self.executor.idx])
@@ -295,13 +397,26 @@ class Robot:
                              f"position of joint {j!r}; plan again from the present position")
         self.stop.clear()
         try:
-            with sigint_stops(self.stop):
+            with signals_stop(self.stop):
                 return self.executor.run(plan, self.stop, on_cycle, record)
-        except MotionStopped:
-            if self.stop.escalated:
-                self.apply_exit_policy(self.exit_policy)
-                self._closed = self._closed or self.exit_policy is not ExitPolicy.HOLD
+        except MotionStopped as stopped:
+            self._locate(stopped)
             raise
+
+    def _locate(self, stopped: MotionStopped) -> None:
+        """Record on ``stopped`` where the arm stopped (joints read back, else the held goal)."""
+        from armctl.errors import BusError
+        from armctl.spatial import matrix_to_rpy
+
+        q: Array | None
+        try:
+            q = self.joints()
+        except BusError:
+            q = None if stopped.held is None else np.asarray(stopped.held, dtype=np.float64)
+        if q is None or q.shape != (self.arm.dof,):
+            return
+        pose = self.arm.fk(q)
+        stopped.locate(self.arm.values_by_name(q), pose[:3, 3], matrix_to_rpy(pose[:3, :3]))
 
     def move_joints(self, q: npt.ArrayLike, speed: float | None = None, dry_run: bool = False,
                     on_cycle: Callable[[CycleInfo], None] | None = None) -> MoveReport:
@@ -352,7 +467,15 @@ class Robot:
 
     def plan_program(self, program: KeyframeProgram, options: PlaybackOptions | None = None,
                      solver: str = "auto") -> MotionPlan:
-        """A checked plan of a keyframe program from the present pose."""
+        """A checked plan of a keyframe program from the present pose.
+
+        Raises:
+            JointLimitError: A joint keyframe (or gripper value) inside the config's limits but
+                outside the effective ones, naming the keyframe and the limit's source.
+            ConfigError: A keyframe outside the config's limits.
+            LimitViolation: A sample of the plan beyond a limit.
+        """
+        self._check_keyframes(program)
 
         def ik(pose: Array, seed: Array, orientation: bool) -> Array:
             from armctl.ik import PoseGoal
@@ -365,8 +488,27 @@ class Robot:
             q[still] = seed[still]
             return q
 
-        return plan_program(program, self.arm, self.limits, self.plan_start(),
-                            options or PlaybackOptions(), ik)
+        with self._limit_sources():
+            return plan_program(program, self.arm, self.limits, self.plan_start(),
+                                options or PlaybackOptions(), ik)
+
+    def _check_keyframes(self, program: KeyframeProgram) -> None:
+        """Refuse joint values that the config allows but the effective limits do not."""
+        cfg = self.config_arm
+        grip = [i for i, r in enumerate(self.arm.joint_roles) if r is JointRole.GRIPPER]
+        for k, kf in enumerate(program.keyframes):
+            values: list[tuple[int, float]] = []
+            if kf.q is not None:
+                values += [(self.arm.joint_index(n), float(v))
+                           for n, v in zip(program.joints, kf.q, strict=True)]
+            if kf.gripper is not None:
+                values += [(i, float(kf.gripper)) for i in grip]
+            for i, v in values:
+                inside_config = cfg.lower[i] - 1e-9 <= v <= cfg.upper[i] + 1e-9
+                if inside_config and not self.arm.lower[i] - 1e-9 <= v <= self.arm.upper[i] + 1e-9:
+                    where = f", {kf.where.where()}" if kf.where.file or kf.where.keys else ""
+                    raise self.effective.error(self.arm.joint_names[i], v,
+                                               f"keyframe {k} ({kf.label}){where}")
 
     def play(self, program: KeyframeProgram, options: PlaybackOptions | None = None,
              dry_run: bool = False, solver: str = "auto",
@@ -403,12 +545,20 @@ class Robot:
 
 def _calibration(arm: Arm) -> Calibration | None:
     """The arm's calibration when its file exists (else the config's offsets are used)."""
-    from armctl.servo.calibration import Calibration, calibration_path
+    from armctl.servo.calibration import load_calibration
 
-    if arm.spec.bus is None or arm.spec.file is None:
-        return None
-    try:
-        path = calibration_path(arm.spec)
-    except InputError:
-        return None
-    return Calibration.load(path) if path.exists() else None
+    return load_calibration(arm.spec)
+
+
+def _effective_limits(arm: Arm, bus: JointBus) -> EffectiveLimits:
+    """The effective limits of an arm on a bus.
+
+    On an :class:`~armctl.servo.arm_bus.ArmBus`: the config, its calibration and the servos'
+    position limit registers; on another bus: the config's limits.
+    """
+    from armctl.servo.arm_bus import ArmBus
+    from armctl.servo.effective_limits import effective_limits, limits_of_bus
+
+    if isinstance(bus, ArmBus):
+        return limits_of_bus(arm.spec, bus)
+    return effective_limits(arm.spec)

@@ -1,8 +1,21 @@
-"""Stop requests: Ctrl-C (SIGINT) handling that asks the streaming loop to stop safely.
+"""Stop requests: SIGINT (Ctrl-C), SIGTERM and SIGHUP routed to a controlled stop, and hold.
 
-The first Ctrl-C asks for a controlled stop (decelerate within the limits, then hold). A second
-one asks for the exit policy (hold, park or release) once the arm is at rest. Neither interrupts
-the stop itself: the arm is never left moving or dropped half-way.
+While a motion streams (:meth:`armctl.robot.Robot.execute` wraps it in :func:`signals_stop`):
+
+* the **first** stop signal asks for a controlled stop: the streaming loop decelerates from the
+  commanded state within the joints' velocity, acceleration and jerk limits, then holds with
+  torque on (:class:`~armctl.robot.errors.MotionStopped`);
+* a **second** signal during that deceleration holds at once: the goal becomes the present
+  reading (torque stays on), so the arm stops where it is, as fast as the servos can;
+* signals after the stop has finished do not interrupt anything (see :class:`SignalGuard`).
+
+A stop never leads to the exit policy: parking or releasing happens only when a block or a
+command ends normally, or when it is asked for explicitly (``Robot.close(ExitPolicy.PARK)``).
+
+The handlers only record the request (a signal handler must not write to a stream the program
+may be writing to); the streaming loop reports it through the ``armctl.robot`` loggers. They are
+installed in the main thread only (elsewhere these context managers do nothing) and the
+previous handlers are restored afterwards.
 """
 
 from __future__ import annotations
@@ -12,88 +25,147 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
+from typing import Any
 
-__all__ = ["StopRequest", "ignore_sigint", "sigint_stops"]
+from armctl.robot.errors import SignalInterrupt, _signal_name
+
+__all__ = ["STOP_SIGNALS", "SignalGuard", "StopRequest", "signal_name", "signals_stop"]
+
+#: The signals that stop a motion: Ctrl-C, ``kill`` (and service managers), a closed terminal.
+STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
+def signal_name(signum: int) -> str:
+    """``"SIGINT"`` for 2, and so on (``"signal N"`` for a number without a name)."""
+    return _signal_name(signum) or ""
 
 
 class StopRequest:
-    """A thread-safe flag that counts stop requests."""
+    """A record of stop requests: how many, why, and the first signal's number.
+
+    Safe to call from a signal handler and from other threads: a request is one list append
+    (atomic), so a signal that arrives while the main thread is inside :meth:`request` neither
+    blocks on a lock nor loses a request.
+    """
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._count = 0
-        self.reason = ""
+        self._requests: list[tuple[str, int | None]] = []
 
-    def request(self, reason: str = "stop requested") -> None:
-        """Ask for a stop (a second call asks for the exit policy)."""
-        with self._lock:
-            self._count += 1
-            if not self.reason:
-                self.reason = reason
+    def request(self, reason: str = "stop requested", signum: int | None = None) -> None:
+        """Ask for a controlled stop (a second call asks to hold at once).
+
+        Args:
+            reason: What asked, for messages, e.g. ``"Ctrl-C (SIGINT)"``.
+            signum: The signal's number, when a signal asked.
+        """
+        self._requests.append((reason, signum))
 
     @property
     def requested(self) -> bool:
         """Whether a stop was asked for."""
-        return self._count > 0
+        return len(self._requests) > 0
 
     @property
     def escalated(self) -> bool:
-        """Whether a second request came (apply the exit policy)."""
-        return self._count > 1
+        """Whether a second request came: hold at once (goal = present position)."""
+        return len(self._requests) > 1
+
+    @property
+    def reason(self) -> str:
+        """What asked first (``""`` when nothing did)."""
+        return self._requests[0][0] if self._requests else ""
+
+    @property
+    def signum(self) -> int | None:
+        """The number of the signal that asked first, if a signal did."""
+        return self._requests[0][1] if self._requests else None
 
     def clear(self) -> None:
         """Forget earlier requests."""
-        with self._lock:
-            self._count = 0
-            self.reason = ""
+        del self._requests[:]
+
+
+def _reason(signum: int) -> str:
+    name = signal_name(signum)
+    return f"Ctrl-C ({name})" if signum == signal.SIGINT else name
 
 
 @contextmanager
-def sigint_stops(stop: StopRequest, message: bool = True) -> Iterator[StopRequest]:
-    """Route SIGINT to ``stop`` while the block runs (main thread only; elsewhere a no-op).
+def signals_stop(stop: StopRequest, signals: tuple[int, ...] = STOP_SIGNALS
+                 ) -> Iterator[StopRequest]:
+    """Route the stop signals to ``stop`` while the block runs (main thread only).
+
+    When the handlers being replaced belong to a :class:`SignalGuard`, the guard is told that a
+    motion ran, so that a signal arriving after the stop is recorded instead of interrupting.
 
     Args:
         stop: The request to set.
-        message: Print what each Ctrl-C does on stderr.
+        signals: The signals to route (default :data:`STOP_SIGNALS`).
     """
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
-    import sys
 
     def handler(signum: int, frame: FrameType | None) -> None:
-        stop.request("Ctrl-C")
-        if message:
-            text = ("stopping: decelerating, then holding position (Ctrl-C again to apply the "
-                    "exit policy)" if not stop.escalated else
-                    "exit policy will be applied once the arm is at rest")
-            print(f"\narmctl: {text}", file=sys.stderr, flush=True)
+        stop.request(_reason(signum), signum)
 
-    previous = signal.signal(signal.SIGINT, handler)
+    previous: dict[int, Any] = {}
     try:
+        for s in signals:
+            previous[s] = signal.signal(s, handler)
         yield stop
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for h in previous.values():  # before the guard's handlers are back
+            guard = getattr(h, "__self__", None)
+            if isinstance(guard, SignalGuard):
+                guard.defer()
+        for s, h in previous.items():
+            signal.signal(s, h)
 
 
-@contextmanager
-def ignore_sigint(reason: str) -> Iterator[None]:
-    """Ignore Ctrl-C while the block runs (parking must not be cut short), saying why.
+class SignalGuard:
+    """The stop signals for the whole of a command that moves the arm.
 
-    Args:
-        reason: What is running, e.g. ``"parking"``.
+    Until a motion has run, a signal interrupts what is under way (opening the bus, planning)
+    by raising :class:`~armctl.robot.errors.SignalInterrupt`: nothing has moved. During a motion
+    :func:`signals_stop` takes over. Once a motion has run, a signal is only recorded
+    (:attr:`signum`): it neither cuts the report short nor replaces the outcome of a stop, and
+    the caller skips the exit policy.
+
+    Use :meth:`installed` around the command (main thread only; elsewhere it does nothing).
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    import sys
 
-    def handler(signum: int, frame: FrameType | None) -> None:
-        print(f"\narmctl: {reason}: Ctrl-C is ignored until it is done", file=sys.stderr,
-              flush=True)
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        self.deferring = False
 
-    previous = signal.signal(signal.SIGINT, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
+    def defer(self) -> None:
+        """From now on, record signals instead of interrupting."""
+        self.deferring = True
+
+    @property
+    def signalled(self) -> bool:
+        """Whether a signal was recorded (after a motion had run)."""
+        return self.signum is not None
+
+    def _handle(self, signum: int, frame: FrameType | None) -> None:
+        if not self.deferring:
+            raise SignalInterrupt(signum, signal_name(signum))
+        if self.signum is None:
+            self.signum = signum
+
+    @contextmanager
+    def installed(self, signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[SignalGuard]:
+        """Install the guard's handlers while the block runs, then restore the previous ones."""
+        if threading.current_thread() is not threading.main_thread():
+            yield self
+            return
+        previous: dict[int, Any] = {}
+        try:
+            for s in signals:
+                previous[s] = signal.signal(s, self._handle)
+            yield self
+        finally:
+            for s, h in previous.items():
+                signal.signal(s, h)

@@ -8,22 +8,111 @@ positions (on the STS3215 a goal write switches torque back on).
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Sequence
 from dataclasses import replace
+from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
+from armctl.config.schema import JointRole, JointType
 from armctl.errors import InputError
-from armctl.motion import AngleUnit, Keyframe, KeyframeProgram, save_keyframes
+from armctl.motion import AngleUnit, Keyframe, KeyframeProgram, load_keyframes, save_keyframes
 from armctl.robot.session import MoveReport, Robot
 
-__all__ = ["TeachSession"]
+if TYPE_CHECKING:
+    from armctl.arm import Arm
+
+__all__ = ["ExistingFile", "TeachSession", "appendable", "check_output", "taught_joints"]
 
 Array = npt.NDArray[np.float64]
+
+
+class ExistingFile(Enum):
+    """What a teach session does with a keyframe file that exists already."""
+
+    REFUSE = "refuse"
+    """Refuse to start (nothing is overwritten)."""
+    OVERWRITE = "overwrite"
+    """Replace it with the new recording."""
+    APPEND = "append"
+    """Add the new keyframes after the file's own (same arm and joints; its units are kept)."""
+
+
+def check_output(path: str | Path, existing: ExistingFile) -> Path:
+    """Check that a teach session may write ``path``, before anything is opened.
+
+    Raises:
+        InputError: If the file exists and ``existing`` is :attr:`ExistingFile.REFUSE`, if the
+            path is an arm config or a folder, or if its folder is missing.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{p} is a folder; give the keyframe file to write "
+                         f"(e.g. {p / 'pick.yaml'})")
+    folder = p.parent if str(p.parent) else Path()
+    if not folder.is_dir():
+        raise InputError(f"cannot write {p}: the folder {folder} does not exist; create it first")
+    if not p.exists():
+        return p
+    if _is_arm_config(p):
+        raise InputError(f"{p} is an arm config (armctl YAML or URDF), not a keyframe file; "
+                         "teaching would replace it: choose another file name for the keyframes")
+    if existing is ExistingFile.REFUSE:
+        raise InputError(f"{p} exists already: pass --append to add to its keyframes, --force to "
+                         "overwrite it, or choose another name")
+    return p
+
+
+def taught_joints(arm: Arm) -> tuple[str, ...]:
+    """The joints whose values a teach session records: every joint but the grippers."""
+    return tuple(n for n, r in zip(arm.joint_names, arm.joint_roles, strict=True)
+                 if r is not JointRole.GRIPPER)
+
+
+def appendable(old: KeyframeProgram, arm: Arm, path: str | Path,
+               calibration: str | None = None) -> KeyframeProgram:
+    """A keyframe file's program, checked so that a teach session can add to it.
+
+    :func:`armctl.motion.load_keyframes` has checked the arm's name; the file keeps its units.
+
+    Args:
+        old: The program read from the file.
+        arm: The arm being taught.
+        path: The file, for messages.
+        calibration: Hash of the calibration in use, if known.
+
+    Raises:
+        InputError: If it lists other joints or was taught with another calibration.
+    """
+    joints = taught_joints(arm)
+    if old.joints != joints:
+        raise InputError(
+            f"cannot append to {path}: it lists the joints {', '.join(old.joints)}; a teach "
+            f"session records {', '.join(joints)}; use a new file")
+    if old.calibration and calibration and old.calibration != calibration:
+        raise InputError(
+            f"cannot append to {path}: it was taught with calibration {old.calibration}, the "
+            f"arm now uses {calibration}; the joint values would not match. Use a new file")
+    return replace(old, calibration=old.calibration or calibration)
+
+
+def _is_arm_config(path: Path) -> bool:
+    """Whether ``path`` is an armctl arm YAML (top-level ``armctl:`` key) or a URDF."""
+    if path.suffix.lower() == ".urdf":
+        return True
+    try:
+        with path.open(encoding="utf-8", errors="replace") as fh:
+            head = fh.read(65536)
+    except OSError:
+        return False
+    return any(line.startswith("armctl:") for line in head.splitlines()) or (
+        head.lstrip().startswith("<?xml") and "<robot" in head)
 
 
 class TeachSession:
@@ -34,17 +123,23 @@ class TeachSession:
         path: The keyframe file to write (created at :meth:`start`).
         release: Joints whose torque goes off for hand-guiding; ``None``: every arm joint
             (grippers stay stiff).
-        angle_unit: Unit of angles in the file.
-        description: Text stored in the file.
+        angle_unit: Unit of angles in a new file (an appended file keeps its units).
+        description: Text stored in a new file.
+        existing: What to do when the file exists already (default: refuse).
+
+    Raises:
+        InputError: For an existing file without ``existing``, or one that cannot be appended
+            to (another arm, other joints, another calibration).
     """
 
     def __init__(self, robot: Robot, path: str | Path, release: Sequence[str] | None = None,
-                 angle_unit: AngleUnit = AngleUnit.RAD, description: str = ""):
+                 angle_unit: AngleUnit = AngleUnit.RAD, description: str = "",
+                 existing: ExistingFile = ExistingFile.REFUSE):
         self.robot = robot
-        self.path = Path(path)
+        self.path = check_output(path, existing)
         grippers = set(robot.gripper_joints)
         on_bus = robot.bus.joint_names
-        self.joints = tuple(n for n in robot.arm.joint_names if n not in grippers)
+        self.joints = taught_joints(robot.arm)
         if release is None:
             release = [n for n in on_bus if n not in grippers]
         for name in release:
@@ -57,6 +152,9 @@ class TeachSession:
         self.program = KeyframeProgram(robot.arm.name, self.joints, (),
                                        robot.calibration_hash(), angle_unit=angle_unit,
                                        description=description)
+        if existing is ExistingFile.APPEND and self.path.exists():
+            self.program = appendable(load_keyframes(self.path, robot.arm), robot.arm,
+                                      self.path, self.program.calibration)
         self.limp = False
         self._t0: float | None = None
         self._lock = threading.Lock()
@@ -93,17 +191,47 @@ class TeachSession:
         Returns:
             The keyframe.
         """
+        if not (math.isfinite(dwell) and dwell >= 0):
+            raise InputError(f"dwell must be a time of 0 s or more, got {dwell}")
+        if gripper is not None:
+            self._check_gripper(gripper)
         q = self.robot.joints()
         if with_gripper and gripper is None and self.robot.gripper_joints:
             gripper = float(q[self.robot.arm.joint_index(self.robot.gripper_joints[0])])
-        if gripper is not None and not self.robot.gripper_joints:
-            raise InputError(f"arm {self.robot.arm.name!r} has no gripper joint")
         values = tuple(float(q[self.robot.arm.joint_index(n)]) for n in self.joints)
         kf = Keyframe(q=values, name=name, dwell=dwell, gripper=gripper)
         with self._lock:
             self.program = self.program.append(kf)
             self._save()
         return kf
+
+    def _check_gripper(self, value: float) -> None:
+        """Refuse a gripper value [rad]/[m] that the gripper joints cannot take.
+
+        Raises:
+            InputError: Without a gripper joint, for NaN/inf, or outside a gripper's limits
+                (saying when the value looks like degrees or millimetres).
+        """
+        arm = self.robot.arm
+        if not self.robot.gripper_joints:
+            raise InputError(f"arm {arm.name!r} has no gripper joint")
+        if not math.isfinite(value):
+            raise InputError(f"gripper value {value} is not a finite number")
+        for name in self.robot.gripper_joints:
+            i = arm.joint_index(name)
+            lo, hi = float(arm.lower[i]), float(arm.upper[i])
+            if lo - 1e-9 <= value <= hi + 1e-9:
+                continue
+            prismatic = arm.joint_types[i] is JointType.PRISMATIC
+            unit = "m" if prismatic else "rad"
+            hint = ""
+            if prismatic and lo <= value / 1000 <= hi:
+                hint = f"; gripper values are in metres: did you mean {value / 1000:g} m?"
+            elif not prismatic and lo <= math.radians(value) <= hi:
+                hint = (f"; gripper values are in radians: did you mean {math.radians(value):.4g}"
+                        f" rad ({value:g} deg)?")
+            raise InputError(f"gripper value {value:g} {unit} is outside the limits of joint "
+                             f"{name!r} [{lo:.6g}, {hi:.6g}] {unit}{hint}")
 
     def undo(self) -> Keyframe | None:
         """Remove the last keyframe (and save)."""
@@ -114,6 +242,18 @@ class TeachSession:
             self.program = replace(self.program, keyframes=self.program.keyframes[:-1])
             self._save()
             return last
+
+    @staticmethod
+    def check_recording(rate_hz: float, duration: float | None = None) -> None:
+        """Refuse a continuous recording's rate [Hz] outside 1 to 100 or a duration [s] <= 0.
+
+        Raises:
+            InputError: Saying the valid range.
+        """
+        if not 1.0 <= rate_hz <= 100.0:
+            raise InputError(f"recording rate {rate_hz:g} Hz is outside 1 to 100 Hz")
+        if duration is not None and not (math.isfinite(duration) and duration > 0):
+            raise InputError(f"recording duration {duration:g} s must be more than 0 s")
 
     def record_continuous(self, rate_hz: float, stop: threading.Event,
                           duration: float | None = None, save_every: float = 0.25) -> int:
@@ -132,8 +272,7 @@ class TeachSession:
         Returns:
             The number of samples recorded.
         """
-        if not 1.0 <= rate_hz <= 100.0:
-            raise InputError(f"recording rate {rate_hz} Hz is outside 1 to 100 Hz")
+        self.check_recording(rate_hz, duration)
         dt = 1.0 / rate_hz
         last = [kf.time for kf in self.program.keyframes if kf.time is not None]
         offset = (last[-1] + dt) if last else 0.0
@@ -168,7 +307,7 @@ class TeachSession:
         """Move one joint by ``delta`` [rad]/[m] (torque comes on first, holding the pose)."""
         if self.limp:
             self.set_limp(False)
-        q = self.robot.joints()
+        q = self.robot.plan_start()  # a joint resting just outside its limits counts as at them
         q[self.robot.arm.joint_index(joint)] += delta
         return self.robot.move_joints(q, speed)
 

@@ -24,6 +24,7 @@ from armctl.servo.sim.faults import (
     LateReply,
     LockupAfterOverload,
     MissingServo,
+    Obstacle,
     TruncatedReply,
     WrongModel,
 )
@@ -47,6 +48,7 @@ __all__ = [
     "LatencySpike",
     "LockupAfterOverload",
     "MissingServo",
+    "Obstacle",
     "PingResult",
     "Register",
     "ServoBus",

@@ -93,6 +93,7 @@ class ArmBus:
         self._ids = list(mapping.ids)
         self.calibration: Calibration | None = None
         self.arm_name = "arm"
+        self._alarmed: dict[int, tuple[Alarm, ...]] = {}  # servo id -> alarms it reported
 
     @classmethod
     def from_spec(cls, spec: ArmSpec, calibration: Calibration | None = None, *,
@@ -213,8 +214,10 @@ class ArmBus:
 
         Raises:
             EepromLockedError: If the servo refuses (torque on).
+            ServoAlarmError: The servo reported an alarm (see :attr:`alarmed`); nothing is sent.
         """
         bus = self.servo_bus
+        self._refuse_alarmed([sid], "the EEPROM write")
         feetech = bus.family is Family.FEETECH
         if feetech:
             bus.write(sid, Register.LOCK, 0)
@@ -225,7 +228,48 @@ class ArmBus:
 
     # ---- reading -------------------------------------------------------------------------------
     def _feedback(self) -> dict[int, Feedback]:
-        return self.servo_bus.read_feedback(self._ids)
+        fb = self.servo_bus.read_feedback(self._ids)
+        for sid, f in fb.items():
+            if f.alarms:
+                self._alarmed[sid] = f.alarms
+        return fb
+
+    # ---- alarms: nothing is sent to an alarmed servo until the alarm is cleared -----------
+    @property
+    def alarmed(self) -> dict[str, tuple[Alarm, ...]]:
+        """Joints whose servo reported a hardware alarm since the bus opened (or was cleared).
+
+        Nothing but reads and torque-off is sent to them (an STS3215 goal write would switch
+        its torque back on) until :meth:`clear_alarms` (or :meth:`reboot`).
+        """
+        return {j.name: self._alarmed[j.servo_id] for j in self.mapping.joints
+                if j.servo_id in self._alarmed}
+
+    def _refuse_alarmed(self, ids: Sequence[int], what: str) -> None:
+        """Raise for the first alarmed servo among ``ids`` (nothing has been sent)."""
+        for j in self.mapping.joints:
+            if j.servo_id in ids and j.servo_id in self._alarmed:
+                raise E.ServoAlarmError(
+                    f"joint {j.name!r} reported a hardware alarm; {what} was not sent: nothing "
+                    "more is sent to this servo until its alarm is cleared", self.servo_bus.port,
+                    j.servo_id, None, ", ".join(a.value for a in self._alarmed[j.servo_id]),
+                    fix="remove the cause (load, heat, supply voltage), then clear it: 'armctl "
+                        "torque CONFIG on --clear-alarms' or ArmBus.clear_alarms() (reboots "
+                        "the servo; torque comes back off)")
+
+    def clear_alarms(self, joints: Sequence[str] | None = None) -> list[str]:
+        """Reboot the alarmed servos among ``joints`` (all when ``None``) and accept them again.
+
+        A reboot clears a latched alarm (Dynamixel Alert, Feetech status); torque comes back
+        off. A servo whose alarm persists is refused again at the next reading.
+
+        Returns:
+            The joints that were cleared.
+        """
+        names = self.joint_names if joints is None else tuple(joints)
+        todo = [n for n in names if self.mapping.joint(n).servo_id in self._alarmed]
+        self.reboot(todo)
+        return todo
 
     def read_joints(self) -> Array:
         """Present joint values [rad] or [m] from one sync read.
@@ -238,11 +282,13 @@ class ArmBus:
         for j in self.mapping.joints:
             alarms = got[j.servo_id][1]
             if alarms:
+                self._alarmed[j.servo_id] = alarms
                 raise E.ServoAlarmError(f"joint {j.name!r}: hardware alarm", self.servo_bus.port,
                                         j.servo_id, "present_position",
                                         ", ".join(a.value for a in alarms),
-                                        fix="remove the cause, then reboot the servo "
-                                            "(ArmBus.reboot)")
+                                        fix="remove the cause, then clear it: 'armctl torque "
+                                            "CONFIG on --clear-alarms' or "
+                                            "ArmBus.clear_alarms() (reboots the servo)")
         return self.mapping.from_ticks({sid: p for sid, (p, _) in got.items()})
 
     def read_state(self) -> JointState:
@@ -266,21 +312,28 @@ class ArmBus:
         )
 
     # ---- commanding ------------------------------------------------------------------------------
-    def write_joints(self, q: npt.ArrayLike) -> None:
+    def write_joints(self, q: npt.ArrayLike, *, skip_alarmed: bool = False) -> None:
         """Send goal positions for every servo joint in one sync write.
 
         Args:
             q: One value per joint of :attr:`joint_names`, [rad] or [m].
+            skip_alarmed: Leave the servos that reported an alarm out (the others still get
+                their goals: a stop after an alarm) instead of refusing the write.
 
         Raises:
             JointLimitError: A value outside its joint's limits; nothing is sent.
             InputError: Wrong number of values or not finite; nothing is sent.
+            ServoAlarmError: A servo reported an alarm (see :attr:`alarmed`); nothing is sent.
         """
         arr = self.mapping.as_vector(q)
         if not np.all(np.isfinite(arr)):
             bad = self.joint_names[int(np.argmin(np.isfinite(arr)))]
             raise InputError(f"joint {bad!r}: goal is not a finite number; nothing was sent")
         ticks = self.mapping.goal_ticks(arr)
+        if skip_alarmed:
+            ticks = {sid: t for sid, t in ticks.items() if sid not in self._alarmed}
+        else:
+            self._refuse_alarmed(list(ticks), "the goal")
         self.servo_bus.sync_write(Register.GOAL_POSITION, ticks)
 
     def set_torque(self, on: bool, joints: Sequence[str] | None = None) -> None:
@@ -288,9 +341,13 @@ class ArmBus:
 
         Raises:
             UnknownNameError: For a joint without a servo.
+            ServoAlarmError: Torque on for a servo that reported an alarm (see
+                :attr:`alarmed`); nothing is sent.
         """
         names = self.joint_names if joints is None else tuple(joints)
         ids = [self.mapping.joint(n).servo_id for n in names]
+        if on:
+            self._refuse_alarmed(ids, "torque on")
         self.servo_bus.set_torque(ids, on)
 
     def torque(self) -> dict[str, bool]:
@@ -300,10 +357,19 @@ class ArmBus:
                 for j in self.mapping.joints}
 
     def reboot(self, joints: Sequence[str] | None = None) -> None:
-        """Reboot servos (clears latched alarms; torque comes back off)."""
+        """Reboot servos: clears latched alarms and the lock-out of :attr:`alarmed`.
+
+        Torque comes back off.
+        """
         names = self.joint_names if joints is None else tuple(joints)
         for n in names:
-            self.servo_bus.reboot(self.mapping.joint(n).servo_id)
+            sid = self.mapping.joint(n).servo_id
+            self.servo_bus.reboot(sid)
+            self._alarmed.pop(sid, None)
+
+    def retry_counts(self) -> dict[int, int]:
+        """Failed bus attempts (missing, corrupt or late replies) per servo id since opening."""
+        return self.servo_bus.retry_counts()
 
     @property
     def protocol(self) -> Protocol:

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import yaml
 
+from armctl.atomic_write import write_atomic
 from armctl.config.schema import ArmSpec
 from armctl.config.source import load_yaml
 from armctl.errors import ConfigError, InputError, KeyPath
@@ -38,7 +39,8 @@ from armctl.servo.tables import Family, Register, table_for
 if TYPE_CHECKING:
     from armctl.servo.arm_bus import ArmBus
 
-__all__ = ["Calibration", "Calibrator", "JointCalibration", "calibration_path"]
+__all__ = ["Calibration", "Calibrator", "JointCalibration", "calibration_path",
+           "load_calibration"]
 
 VERSION = 1
 _MIN_SWEEP = 40  # [tick] a joint that moved less than this was not swept
@@ -94,17 +96,18 @@ class Calibration:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def save(self, path: str | Path) -> Path:
-        """Write the calibration file.
+        """Write the calibration file atomically (a failed write keeps the previous file).
 
         Returns:
             The path written.
+
+        Raises:
+            ConfigError: If the file cannot be written; the previous calibration is intact.
         """
-        p = Path(path)
         doc = {"armctl_calibration": self.version, "arm": self.arm, "hash": self.hash,
                "joints": {k: asdict(v) for k, v in self.joints.items()}}
-        p.write_text("# armctl calibration: written by 'armctl calibrate'; do not edit by hand\n"
-                     + yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
-        return p
+        return write_atomic(Path(path), "# armctl calibration: written by 'armctl calibrate'; "
+                            "do not edit by hand\n" + yaml.safe_dump(doc, sort_keys=False))
 
     @classmethod
     def load(cls, path: str | Path) -> Calibration:
@@ -156,6 +159,26 @@ def calibration_path(spec: ArmSpec) -> Path:
     if spec.bus.calibration:
         return (spec.file.parent / spec.bus.calibration).resolve()
     return spec.file.with_name(f"{spec.file.stem}.calibration.yaml")
+
+
+def load_calibration(spec: ArmSpec) -> Calibration | None:
+    """The calibration of an arm when its file exists, checked against the config.
+
+    Returns:
+        The calibration, or ``None`` for an arm without a bus section, without a config file,
+        or not calibrated yet (then the config's offsets and limits are used).
+
+    Raises:
+        ConfigError: An unreadable or edited file, or one for another arm or other servos.
+    """
+    if spec.bus is None or spec.file is None:
+        return None
+    path = calibration_path(spec)
+    if not path.exists():
+        return None
+    cal = Calibration.load(path)
+    check_against(cal, spec)
+    return cal
 
 
 class Calibrator:

@@ -3,10 +3,11 @@
 :class:`ServoBus` opens a port (no I/O in the constructor; use it as a context manager), pings
 and scans, reads and writes registers by name, sync-reads servo feedback for many ids in one
 transaction and sync-writes goals, switches torque and reboots. It adds what the SDKs lack:
-bounded retries of failed transactions with input flushed before each, timeouts that fit the
-baud rate, the error byte that the SDKs' group sync read drops (armctl reads the group replies
-itself, one status packet per id in request order), and exceptions that name the port, the
-servo, the register and what the servo answered.
+every status packet matched to its request (:mod:`armctl.servo.replies`: a late reply is never
+taken for the answer to a later request), bounded retries with the line drained before each,
+retries counted per servo, timeouts that fit the baud rate, the error byte that the SDKs' group
+sync read drops, an exclusively opened port, I/O errors turned into bus errors, and exceptions
+that name the port, the servo, the register and what the servo answered.
 """
 
 from __future__ import annotations
@@ -14,13 +15,15 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from typing import Any, TypeVar
+from dataclasses import dataclass
+from typing import Any
 
 from armctl.config.bus import Protocol
 from armctl.errors import InputError
 from armctl.servo import errors as E
 from armctl.servo.codec import decode, encode, from_le, to_le
-from armctl.servo.sdk import Dxl1Sdk, DxlSdk, FeetechSdk, Sdk
+from armctl.servo.replies import ReplyLedger, Window
+from armctl.servo.sdk import IO_ERRORS, Dxl1Sdk, DxlSdk, FeetechSdk, Sdk
 from armctl.servo.status import Feedback, PingResult, StatusStyle, alarms_in, refusal
 from armctl.servo.tables import (
     Alarm,
@@ -34,7 +37,29 @@ from armctl.servo.tables import (
 
 __all__ = ["ServoBus"]
 
-T = TypeVar("T", bound=tuple[Any, ...])
+#: Unanswered requests per servo after which the line is resynchronised (drained until quiet).
+MAX_PENDING = 24
+#: Silence [s] that ends a resynchronisation, and the longest one may take [s].
+RESYNC_QUIET = 0.1
+RESYNC_MAX = 1.0
+
+
+@dataclass
+class _Attempt:
+    """The outcome of one attempt of a transaction.
+
+    Attributes:
+        result: SDK result code.
+        value: What the transaction returns (on success).
+        waited: The servo whose reply was missing or corrupt (on failure).
+        received: Status packets received during the attempt (matched, late or stray).
+    """
+
+    result: int
+    value: Any = None
+    waited: int | None = None
+    received: int = 0
+
 
 FEEDBACK = (Register.PRESENT_POSITION, Register.PRESENT_VELOCITY, Register.PRESENT_LOAD,
             Register.PRESENT_VOLTAGE, Register.PRESENT_TEMPERATURE)
@@ -72,13 +97,18 @@ class ServoBus:
                                  f"{protocol.value} bus; fix the bus protocol or the model")
         self._sdk: Sdk | None = None
         self._lock = threading.RLock()
+        self.ledger = ReplyLedger()
+        self._late_now: list[int] = []
+        generic = table_for("sts3215" if self.family is Family.FEETECH else "xl430-w250")
+        self._generic = generic  # for servos of unknown model (scan): model number, id, memory
 
     # ---- life cycle -------------------------------------------------------------------------
     def open(self) -> ServoBus:
-        """Open the port.
+        """Open the port, exclusively (no other program can use it while armctl does).
 
         Raises:
-            PortError: The port is missing, busy, not permitted, or the baud rate is refused.
+            PortError: The port is missing, not a serial port, busy (in use by another
+                program), not permitted, or the baud rate is refused.
         """
         if self._sdk is not None:
             return self
@@ -92,24 +122,12 @@ class ServoBus:
         if not ok:
             raise E.PortError(f"the {self.protocol.value} SDK refuses {self.baudrate} baud",
                               self.port, fix="use a baud rate the servos and the SDK support")
-        fd = sdk.fileno()
-        if fd is not None:
-            try:
-                import fcntl
-
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except ImportError:
-                pass
-            except OSError as exc:
-                sdk.close()
-                raise E.PortError("the port is busy: another armctl program is using it",
-                                  self.port, fix="close the other program (armctl status, "
-                                  "sim or a script) and try again") from exc
         self._sdk = sdk
+        self.ledger = ReplyLedger()
         return self
 
     def close(self) -> None:
-        """Close the port (safe to call twice)."""
+        """Close the port (safe to call twice, and after the port vanished)."""
         with self._lock:
             if self._sdk is not None:
                 self._sdk.close()
@@ -144,39 +162,211 @@ class ServoBus:
             raise InputError(f"servo {sid} on {self.port} has no known model; pass it in "
                              "'models' or run 'armctl scan' to find it") from None
 
-    # ---- transactions with retries ------------------------------------------------------------
-    def _retry(self, what: str, sid: int | None, reg: str | None, call: Callable[[Sdk], T],
-               retries: int | None = None) -> T:
-        """Run ``call`` (which returns the SDK result code first) with bounded retries.
+    def retry_counts(self) -> dict[int, int]:
+        """Failed attempts per servo id since the bus was opened.
 
-        Input is flushed before every attempt; timeouts and corrupt replies are retried.
+        An attempt fails when its reply is missing, corrupt or late; each one is retried
+        while the transaction has attempts left. The servo counted is the one whose reply
+        failed (or, for late replies, the servo whose late replies held up the line).
+        """
+        with self._lock:
+            return dict(self.ledger.retries)
+
+    # ---- transactions: matching, retries, I/O errors --------------------------------------------
+    def _transact(self, what: str, sid: int | None, reg: str | None,
+                  call: Callable[[Sdk], _Attempt], retries: int | None = None,
+                  replies: bool = True) -> Any:
+        """Run ``call`` (one attempt: send a request, match its replies) with bounded retries.
+
+        The line is drained before every attempt of a request with ``replies`` (late replies
+        waiting in the input are read and recorded against their servos; every transmit then
+        flushes the input); timeouts and corrupt replies are retried; an I/O error on the port
+        is never retried.
+
+        Raises:
+            LateReplyError: Late replies were seen and no reply could be matched.
+            NoReplyError, CorruptReplyError, CommError: After the retries.
+            PortIOError, PortVanishedError: Reading or writing the port failed.
         """
         sdk = self._need()
-        result = sdk.SUCCESS
-        attempts = 1 + (self.retries if retries is None else retries)
-        for _attempt in range(attempts):
-            with self._lock:
-                sdk.flush_input()
-                out = call(sdk)
-            result = out[0]
-            if result == sdk.SUCCESS:
-                return out
-            if result not in (sdk.TIMEOUT, sdk.CORRUPT):
-                break
+        attempts = 1 + (self.retries if retries is None else max(0, retries))
+        with self._lock:
+            self._late_now = []
+            blame: int | None = None
+            outcome = _Attempt(sdk.SUCCESS)
+            for _attempt in range(attempts):
+                mark = len(self._late_now)
+                try:
+                    if replies:
+                        self._drain(sdk)
+                    outcome = call(sdk)
+                except IO_ERRORS as exc:
+                    raise E.port_io_error(self.port, exc) from exc
+                if outcome.result == sdk.SUCCESS:
+                    return outcome.value
+                late = self._late_now[mark:]
+                if outcome.result == sdk.TIMEOUT and late:
+                    blame = late[0]  # its late reply held up the line
+                elif not (outcome.result == sdk.TIMEOUT and outcome.received == 0
+                          and blame is not None):
+                    blame = outcome.waited  # (a silent retry keeps the earlier blame)
+                self.ledger.count_retry(blame)
+                if outcome.result not in (sdk.TIMEOUT, sdk.CORRUPT):
+                    break
+            late_seen = blame is not None and blame in self._late_now
+        who = blame if blame is not None else sid
+        result = outcome.result
         text = sdk.result_text(result)
         tries = f"after {attempts} attempt" + ("s" if attempts > 1 else "")
+        if result == sdk.TIMEOUT and late_seen:
+            raise E.LateReplyError(
+                f"its replies arrive late, after their timeout, so none could be matched to "
+                f"{what} {tries}", self.port, who, reg,
+                fix="a slow USB adapter or a busy computer: lower the adapter's latency timer "
+                    "(docs/bus.md) or raise latency_ms; check the servo's Return Delay Time")
         if result == sdk.TIMEOUT:
-            raise E.NoReplyError(f"no reply to {what} {tries} ({text})", self.port, sid, reg,
+            raise E.NoReplyError(f"no reply to {what} {tries} ({text})", self.port, who, reg,
                                  fix="check the cable, power, id and baud rate "
                                      "('armctl scan --port ... --baud all')")
         if result == sdk.CORRUPT:
             raise E.CorruptReplyError(f"corrupt reply to {what} {tries} ({text})", self.port,
-                                      sid, reg, fix="check wiring, power supply voltage and "
+                                      who, reg, fix="check wiring, power supply voltage and "
                                       "that no two servos share an id")
-        raise E.CommError(f"{what} failed: {text}", self.port, sid, reg)
+        raise E.CommError(f"{what} failed: {text}", self.port, who, reg)
+
+    def _drain(self, sdk: Sdk) -> int:
+        """Read the packets waiting in the input (late replies are recorded)."""
+        waiting = sdk.drain()
+        for rsid, _err, data in waiting:
+            if self.ledger.take_late(rsid, len(data)):
+                self._late_now.append(rsid)
+        return len(waiting)
+
+    def _resync(self, sdk: Sdk, ids: Iterable[int]) -> None:
+        """Drain the line until it stays quiet, then expect nothing more from ``ids``.
+
+        Used when so many requests went unanswered that no read length is left free.
+
+        Raises:
+            LateReplyError: The line did not go quiet within :data:`RESYNC_MAX`.
+        """
+        ids = list(ids)
+        start = quiet = time.monotonic()
+        while True:
+            now = time.monotonic()
+            if sdk.waiting():
+                self._drain(sdk)
+                sdk.flush_input()  # a torn packet too
+                quiet = now
+            elif now - quiet >= RESYNC_QUIET:
+                break
+            if now - start > RESYNC_MAX:
+                raise E.LateReplyError(
+                    f"replies keep arriving for requests that timed out; the line did not go "
+                    f"quiet within {RESYNC_MAX:g} s", self.port, ids[0] if ids else None,
+                    fix="check the USB adapter (latency timer) and that no other program "
+                        "uses the port")
+            time.sleep(0.002)
+        for sid in ids:
+            self.ledger.matched(sid)
+
+    def _window(self, sdk: Sdk, ids: Sequence[int], addr: int, size: int) -> Window:
+        """A read window for ``ids`` whose reply length no pending reply has."""
+        if not self.ledger.any_pending(ids):
+            return Window(addr, size)
+        memory = min(self.tables.get(i, self._generic).memory_size for i in ids)
+        if all(self.ledger.count_pending(i) < MAX_PENDING for i in ids):
+            win = self.ledger.window(ids, addr, size, memory)
+            if win is not None:
+                return win
+        self._resync(sdk, ids)
+        return Window(addr, size)
+
+    def _collect(self, sdk: Sdk, ids: Sequence[int], n: int, refusal_ok: bool = False
+                 ) -> _Attempt:
+        """Receive the replies to the request just sent: one per id, in order, ``n`` bytes each.
+
+        A packet is accepted for servo ``s`` only when its id is ``s`` and it carries ``n``
+        data bytes (or, with ``refusal_ok``, no data and an error number: a refused read).
+        Packets matching a pending entry are late replies (recorded, skipped); others are
+        skipped. A servo further down the list answering means the ones before it are
+        missing: their replies cannot follow.
+
+        Returns:
+            The attempt's outcome; ``value`` is ``{id: (error, data)}``.
+        """
+        got: dict[int, tuple[int, list[int]]] = {}
+        order = {sid: i for i, sid in enumerate(ids)}
+        received = 0
+        result = sdk.SUCCESS
+        while len(got) < len(ids):
+            rx, result = sdk.receive()
+            if result != sdk.SUCCESS:
+                break
+            received += 1
+            rsid, err, data = sdk.status(rx)
+            if rsid in order and rsid not in got and (len(data) == n or (
+                    refusal_ok and not data and refusal(self.style, err) is not None
+                    and 0 not in self.ledger.pending(rsid) - {n})):
+                self.ledger.matched(rsid)
+                got[rsid] = (err, data)
+                if order[rsid] == len(ids) - 1:
+                    break  # the last one: nothing more of this request can come
+                continue
+            if self.ledger.take_late(rsid, len(data)):
+                self._late_now.append(rsid)
+        missing = [sid for sid in ids if sid not in got]
+        if not missing:
+            return _Attempt(sdk.SUCCESS, got, received=received)
+        if result == sdk.SUCCESS:
+            result = sdk.TIMEOUT  # a later servo answered: the missing one will not
+        return _Attempt(result, got, missing[0], received)
+
+    def _send(self, sdk: Sdk, ids: Sequence[int], n: int, send: Callable[[], int]) -> int:
+        """Send a request and record the replies it asks for as pending."""
+        result = send()
+        if result == sdk.SUCCESS:
+            for sid in ids:
+                self.ledger.sent(sid, n)
+        return result
+
+    def _barrier(self, sdk: Sdk, sid: int) -> _Attempt | None:
+        """Make sure no reply of servo ``sid`` can be confused with an acknowledgement.
+
+        Sent before a request whose reply length cannot vary (a write's acknowledgement, a
+        ping) when a reply of that length is pending: a read of the id register with a
+        distinguishable length; its matched reply settles every earlier request.
+
+        Returns:
+            ``None`` when the line is in step, else the failed attempt.
+        """
+        spec = self.tables.get(sid, self._generic).spec(Register.ID)
+        win = self._window(sdk, [sid], spec.address, spec.size)
+        res = self._send(sdk, [sid], win.length,
+                         lambda: sdk.send_read(sid, win.start, win.length))
+        if res != sdk.SUCCESS:
+            return _Attempt(res, waited=sid)
+        out = self._collect(sdk, [sid], win.length)
+        return None if out.result == sdk.SUCCESS else out
+
+    def _exchange(self, sdk: Sdk, sid: int, n: int, send: Callable[[], int]) -> _Attempt:
+        """One request with a fixed reply length ``n`` (barrier first when needed)."""
+        if n in self.ledger.pending(sid):
+            failed = self._barrier(sdk, sid)
+            if failed is not None:
+                return failed
+        res = self._send(sdk, [sid], n, send)
+        if res != sdk.SUCCESS:
+            return _Attempt(res, waited=sid)
+        out = self._collect(sdk, [sid], n)
+        if out.result == sdk.CORRUPT:
+            # Its reply came, unreadable. An acknowledgement carries no value, so it is taken
+            # as settled (no barrier before the retry); reads keep avoiding the length.
+            self.ledger.unreadable(sid, n)
+        return out
 
     def ping(self, sid: int, retries: int | None = None) -> PingResult:
-        """Ping one servo.
+        """Ping one servo (Feetech and Protocol 1.0: then read its model number).
 
         Args:
             sid: Servo id.
@@ -185,10 +375,19 @@ class ServoBus:
         Raises:
             NoReplyError: If it does not answer.
         """
-        def call(sdk: Sdk) -> tuple[int, int, int | None, int]:
-            model, fw, result, error = sdk.ping(sid)
-            return result, model, fw, error
-        _, model, fw, _ = self._retry("ping", sid, None, call, retries)
+        def call(sdk: Sdk) -> _Attempt:
+            out = self._exchange(sdk, sid, sdk.ping_size, lambda: sdk.send_ping(sid))
+            if out.result == sdk.SUCCESS:
+                out.value = out.value[sid][1]
+            return out
+        data = self._transact("ping", sid, None, call, retries)
+        if len(data) >= 3:  # Dynamixel 2.0: model number and firmware in the ping status
+            model, fw = data[0] | data[1] << 8, data[2]
+        else:
+            spec = self.tables.get(sid, self._generic).spec(Register.MODEL_NUMBER)
+            raw, _ = self._read_block(sid, spec.address, spec.size, "read model_number",
+                                      "model_number", retries)
+            model, fw = raw[0] | raw[1] << 8, None
         known = table_for_model_number(self.family, model)
         return PingResult(sid, model, known.model if known else None, fw)
 
@@ -200,9 +399,20 @@ class ServoBus:
             ids = range(253)  # Protocol 1.0 has no broadcast ping
         if ids is None:
             with self._lock:
-                sdk.flush_input()
-                found, _ = sdk.broadcast_ping(20.0 + 2 * self.latency_ms)
+                try:
+                    self._drain(sdk)
+                    found, _ = sdk.broadcast_ping(20.0 + 2 * self.latency_ms)
+                except IO_ERRORS as exc:
+                    raise E.port_io_error(self.port, exc) from exc
+            spec = self._generic.spec(Register.MODEL_NUMBER)
             for sid, (model, fw) in sorted(found.items()):
+                if not model:  # Feetech: the ping status has no model number; read it
+                    try:
+                        raw, _ = self._read_block(sid, spec.address, spec.size,
+                                                  "read model_number", "model_number")
+                        model = raw[0] | raw[1] << 8
+                    except E.CommError:
+                        pass
                 known = table_for_model_number(self.family, model)
                 out.append(PingResult(sid, model, known.model if known else None, fw))
             return out
@@ -225,6 +435,8 @@ class ServoBus:
             table = table_for(model)
             try:
                 res = self.ping(sid)
+            except E.LateReplyError:
+                raise  # it answers, too late: say so
             except E.NoReplyError as exc:
                 raise E.ServoMissingError(
                     f"servo {sid} ({model}) does not answer", self.port, sid,
@@ -254,18 +466,24 @@ class ServoBus:
         self._check(sid, reg, error, reading=True)
         return decode(spec, from_le(data))
 
-    def _read_block(self, sid: int, addr: int, n: int, what: str, reg: str | None = None
-                    ) -> tuple[list[int], int]:
-        """``(data, error byte)`` of a READ of ``n`` bytes, retried like every transaction."""
-        def call(sdk: Sdk) -> tuple[int, list[int], int]:
-            try:
-                data, result, error = sdk.read(sid, addr, n)
-            except IndexError:  # SDK-DXL read helpers on an error reply without params
-                return sdk.CORRUPT, [], 0
-            if result == sdk.SUCCESS and not error and len(data) != n:
-                return sdk.CORRUPT, data, error
-            return result, data, error
-        _, data, error = self._retry(what, sid, reg, call)
+    def _read_block(self, sid: int, addr: int, n: int, what: str, reg: str | None = None,
+                    retries: int | None = None) -> tuple[list[int], int]:
+        """``(data, error byte)`` of a READ of ``n`` bytes, matched and retried.
+
+        ``data`` is empty when the servo refused the read (an error number without data).
+        """
+        def call(sdk: Sdk) -> _Attempt:
+            win = self._window(sdk, [sid], addr, n)
+            res = self._send(sdk, [sid], win.length,
+                             lambda: sdk.send_read(sid, win.start, win.length))
+            if res != sdk.SUCCESS:
+                return _Attempt(res, waited=sid)
+            out = self._collect(sdk, [sid], win.length, refusal_ok=True)
+            if out.result == sdk.SUCCESS:
+                error, data = out.value[sid]
+                out.value = (win.slice(data, addr, n) if data else [], error)
+            return out
+        data, error = self._transact(what, sid, reg, call, retries)
         return data, error
 
     def write(self, sid: int, register: Register | str, value: int) -> None:
@@ -288,9 +506,12 @@ class ServoBus:
                              f"[{spec.lo}, {spec.hi}]; nothing was sent")
         data = to_le(encode(spec, value), spec.size)
 
-        def call(sdk: Sdk) -> tuple[int, int]:
-            return sdk.write(sid, spec.address, data)
-        _, error = self._retry(f"write {reg.value}={value}", sid, reg.value, call)
+        def call(sdk: Sdk) -> _Attempt:
+            out = self._exchange(sdk, sid, 0, lambda: sdk.send_write(sid, spec.address, data))
+            if out.result == sdk.SUCCESS:
+                out.value = out.value[sid][0]
+            return out
+        error = self._transact(f"write {reg.value}={value}", sid, reg.value, call)
         self._check(sid, reg, error, reading=False)
         target = sid
         if reg is Register.ID and value != sid:
@@ -373,34 +594,28 @@ class ServoBus:
                                      "different addresses; they cannot share a sync read")
         start = min(s.address for s in specs)
         n = max(s.address + s.size for s in specs) - start
-        failed: list[int] = []
+        what = ", ".join(r.value for r in registers)
 
-        def call(sdk: Sdk) -> tuple[int, dict[int, tuple[list[int], int]]]:
-            got: dict[int, tuple[list[int], int]] = {}
-            result = sdk.sync_read_tx(start, n, ids)
-            if result != sdk.SUCCESS:
-                return result, got
-            for sid in ids:
-                data, result, error = sdk.read_rx(sid, n)
-                if result == sdk.SUCCESS and len(data) != n:
-                    result = sdk.CORRUPT
-                if result != sdk.SUCCESS:
-                    failed[:] = [sid]
-                    return result, got
-                got[sid] = (data, error)
-            return result, got
-        try:
-            if self._need().has_sync_read:
-                _, got = self._retry(f"sync read of {n} bytes at {start}", None, None, call)
-            else:  # Protocol 1.0: one read per servo
-                got = {}
-                for sid in ids:
-                    failed[:] = [sid]
-                    got[sid] = self._read_block(sid, start, n, "read of feedback")
-        except E.CommError as exc:
-            who = failed[0] if failed else None
-            raise type(exc)(exc.problem, self.port, who, ", ".join(r.value for r in registers),
-                            fix=exc.fix) from exc
+        def call(sdk: Sdk) -> _Attempt:
+            win = self._window(sdk, ids, start, n)
+            res = self._send(sdk, ids, win.length,
+                             lambda: sdk.sync_read_tx(win.start, win.length, ids))
+            if res != sdk.SUCCESS:
+                return _Attempt(res, waited=ids[0])
+            out = self._collect(sdk, ids, win.length, refusal_ok=True)
+            if out.result == sdk.SUCCESS:
+                out.value = {sid: (win.slice(data, start, n) if data else [], error)
+                             for sid, (error, data) in out.value.items()}
+            return out
+        if self._need().has_sync_read:
+            got = self._transact(f"sync read of {n} bytes at {start}", ids[0], what, call)
+        else:  # Protocol 1.0: one read per servo
+            got = {sid: self._read_block(sid, start, n, "read of feedback", what)
+                   for sid in ids}
+        for sid, (data, error) in got.items():
+            if not data:  # refused: an error number and no data
+                self._check(sid, None, error, reading=True)
+                raise E.CorruptReplyError("a reply without data", self.port, sid, what)
         out = {}
         for sid, (data, error) in got.items():
             vals = {s.register: decode(s, from_le(data[s.address - start:
@@ -462,10 +677,11 @@ class ServoBus:
         if spec is None:
             return
 
-        def call(sdk: Sdk) -> tuple[int]:
+        def call(sdk: Sdk) -> _Attempt:
             assert spec is not None  # mypy.
-            return (sdk.sync_write(spec.address, spec.size, items),)
-        self._retry(f"sync write of {register.value}", None, register.value, call)
+            return _Attempt(sdk.sync_write(spec.address, spec.size, items))
+        self._transact(f"sync write of {register.value}", None, register.value, call,
+                       replies=False)
 
     def set_torque(self, ids: Iterable[int], on: bool) -> None:
         """Switch torque on or off, servo by servo (each write is acknowledged)."""
@@ -485,9 +701,11 @@ class ServoBus:
         if not sdk.has_reboot:
             raise E.CommError("Dynamixel Protocol 1.0 has no reboot instruction", self.port, sid,
                               fix="power-cycle the servo")
-        with self._lock:
-            sdk.flush_input()
-            sdk.reboot(sid)
+
+        def call(sdk: Sdk) -> _Attempt:
+            out = self._exchange(sdk, sid, 0, lambda: sdk.send_reboot(sid))
+            return _Attempt(sdk.SUCCESS) if out.result in (sdk.TIMEOUT, sdk.CORRUPT) else out
+        self._transact("reboot", sid, None, call, retries=0)
         deadline = time.monotonic() + 0.5
         while True:
             time.sleep(wait)

@@ -17,14 +17,18 @@ __all__ = [
     "CommError",
     "CorruptReplyError",
     "EepromLockedError",
+    "LateReplyError",
     "NoReplyError",
     "PortError",
+    "PortIOError",
+    "PortVanishedError",
     "ServoAlarmError",
     "ServoBusError",
     "ServoMissingError",
     "ServoRejectedError",
     "WrongModelError",
     "port_error",
+    "port_io_error",
 ]
 
 
@@ -40,6 +44,9 @@ class ServoBusError(BusError):
         fix: How to fix it.
     """
 
+    #: What joins the location and the problem ("port /dev/ttyACM0: no such port").
+    joiner = ": "
+
     def __init__(self, problem: str, port: str, servo_id: int | None = None,
                  register: str | None = None, answer: str | None = None, fix: str | None = None):
         self.problem = problem
@@ -53,7 +60,7 @@ class ServoBusError(BusError):
             where += f", servo {servo_id}"
         if register is not None:
             where += f", register {register}"
-        text = f"{where}: {problem}"
+        text = f"{where}{self.joiner}{problem}"
         if answer:
             text += f" (servo answered: {answer})"
         if fix:
@@ -71,12 +78,33 @@ class PortError(ServoBusError):
     """The serial port cannot be opened: missing, busy, or no permission."""
 
 
+class PortIOError(ServoBusError):
+    """Reading or writing the open port failed (adapter unplugged, or another program on it).
+
+    Never retried: the transaction's outcome is unknown, and the port may be gone.
+    """
+
+
+class PortVanishedError(PortIOError):
+    """The port's device file disappeared while it was open (the adapter was unplugged)."""
+
+    joiner = " "
+
+
 class CommError(ServoBusError):
     """A transaction failed after its retries."""
 
 
 class NoReplyError(CommError):
     """A servo did not answer in time (after the retries)."""
+
+
+class LateReplyError(NoReplyError):
+    """A servo's replies arrive after their timeout (so they cannot be matched to requests).
+
+    ``servo_id`` is the servo whose late replies were seen, which may differ from the servo
+    whose answer was being waited for (a late reply holds up the replies behind it).
+    """
 
 
 class CorruptReplyError(CommError):
@@ -107,17 +135,45 @@ class ServoAlarmError(ServoBusError):
     """The servo reports a hardware alarm (overload, overheating, input voltage, ...)."""
 
 
+_LIST_PORTS = "list the serial ports with 'armctl ports'"
+
+
 def port_error(port: str, exc: BaseException) -> PortError:
     """The :class:`PortError` for an exception raised while opening ``port``."""
     code = getattr(exc, "errno", None)
     text = str(exc)
     if code == errno.ENOENT or "No such file" in text:
-        return PortError("no such port", port,
-                         fix="plug the adapter in and list ports with 'armctl ports'")
+        return PortError("no such port", port, fix=f"plug the adapter in and {_LIST_PORTS}")
     if code == errno.EACCES or "Permission denied" in text:
         return PortError("permission denied", port,
                          fix="add yourself to the serial group: 'sudo usermod -aG dialout "
                              "$USER', then log out and back in")
-    if code == errno.EBUSY or "busy" in text.lower():
-        return PortError("the port is busy", port, fix="close the program that uses it")
+    if code in (errno.EBUSY, errno.EAGAIN) or "busy" in text.lower() or \
+            "exclusively lock" in text:
+        return PortError("port busy: in use by another program", port,
+                         fix="close the other program (another armctl, a serial terminal, "
+                             f"a robot framework); 'fuser {port}' shows which")
+    if code == errno.EISDIR or "Is a directory" in text:
+        return PortError("not a serial port: it is a directory", port,
+                         fix=f"give the adapter's device, e.g. /dev/ttyACM0; {_LIST_PORTS}")
+    if code == errno.ENOTTY or "Inappropriate ioctl" in text:
+        return PortError("not a serial port: the path is not a terminal device "
+                         "(Inappropriate ioctl for device)", port,
+                         fix=f"give the adapter's device, e.g. /dev/ttyACM0; {_LIST_PORTS}")
     return PortError(f"cannot open the port: {text}", port)
+
+
+def port_io_error(port: str, exc: BaseException) -> PortIOError:
+    """The :class:`PortIOError` for an exception raised by I/O on the open ``port``.
+
+    A port whose device file no longer exists vanished (:class:`PortVanishedError`).
+    """
+    import os
+
+    if not os.path.exists(port):
+        return PortVanishedError("vanished (unplugged?)", port,
+                                 fix=f"plug the adapter back in, {_LIST_PORTS}, and start again; "
+                                     "the servos keep their last goal")
+    return PortIOError(f"reading or writing the port failed: {exc}", port,
+                       fix="check the adapter's cable and that no other program uses the port; "
+                           "the servos keep their last goal")

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from enum import Enum
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -32,12 +33,30 @@ from armctl.errors import ConfigError, InputError, JointLimitError, UnknownNameE
 from armctl.servo.tables import Family, table_for
 
 if TYPE_CHECKING:
-    from armctl.servo.calibration import Calibration
+    from armctl.servo.calibration import Calibration, JointCalibration
 
-__all__ = ["JointMap", "JointMapping"]
+__all__ = ["JointMap", "JointMapping", "LimitSource"]
 
 _TURN_MARGIN = 0.97  # a joint using more than this fraction of a servo turn needs multi-turn
 _EPS = 1e-9
+
+
+class LimitSource(Enum):
+    """Where one side of a joint's range comes from (see :mod:`armctl.servo.effective_limits`)."""
+
+    CONFIG = "config"  # the arm YAML's joint limits
+    CALIBRATION = "calibration"  # the range swept during 'armctl calibrate'
+    SERVO_REGISTER = "servo_register"  # the servo's own Min/Max Position Limit register
+
+    def advice(self) -> str:
+        """How to allow more travel on a side bounded by this source (one sentence)."""
+        if self is LimitSource.CALIBRATION:
+            return ("This limit is the calibrated range: re-run 'armctl calibrate CONFIG' and "
+                    "sweep the joint further (to its mechanical stop) to use more travel.")
+        if self is LimitSource.SERVO_REGISTER:
+            return ("This limit is the servo's own position limit register: write a wider "
+                    "value to it (torque off) to use more travel.")
+        return "Choose a value inside the limits or widen them in the arm config."
 
 
 @dataclass(frozen=True)
@@ -59,6 +78,8 @@ class JointMap:
         multi_turn: Whether the servo runs in multi-turn (extended position) mode.
         rest: A safe joint value inside the limits (home pose, else 0 clipped).
         homing_offset: The Homing Offset register value this mapping assumes [tick].
+        lower_source: What bounds ``lower``: the config, or the calibrated range.
+        upper_source: What bounds ``upper``.
     """
 
     name: str
@@ -75,6 +96,8 @@ class JointMap:
     multi_turn: bool = False
     rest: float = 0.0
     homing_offset: int = 0
+    lower_source: LimitSource = LimitSource.CONFIG
+    upper_source: LimitSource = LimitSource.CONFIG
 
     @property
     def _k(self) -> float:
@@ -104,10 +127,15 @@ class JointMap:
         """Refuse a value outside the limits (or not a number).
 
         Raises:
-            JointLimitError: Outside ``[lower, upper]``.
+            JointLimitError: Outside ``[lower, upper]``; the advice names the source of the
+                limit that was crossed (the config or the calibration).
         """
         if not (self.lower - _EPS <= q <= self.upper + _EPS):
-            raise JointLimitError(self.name, float(q), self.lower, self.upper, context)
+            source = self.lower_source if q < self.lower else self.upper_source
+            if q != q:  # NaN
+                source = LimitSource.CONFIG
+            raise JointLimitError(self.name, float(q), self.lower, self.upper, context,
+                                  advice=source.advice())
 
     def goal_ticks(self, q: float) -> int:
         """The goal position [tick] to send for ``q`` (limits checked first).
@@ -133,6 +161,17 @@ class JointMap:
             return False
         lo, hi = sorted((self.to_ticks(self.lower), self.to_ticks(self.upper)))
         return lo < -0.5 or hi > self.ticks_per_rev - 0.5
+
+
+def calibrated_range(j: JointMap, cal: JointCalibration) -> tuple[float, float]:
+    """The joint range ``(lower, upper)`` [rad]/[m] swept during calibration.
+
+    Args:
+        j: The joint's mapping built with that calibration's zero tick and value.
+        cal: The joint's calibration.
+    """
+    a, b = sorted((j.to_joint_raw(cal.min_tick), j.to_joint_raw(cal.max_tick)))
+    return a, b
 
 
 def _wrap_shift(j: JointMap, family: Family) -> int:
@@ -207,8 +246,11 @@ class JointMapping:
             jm = JointMap(joint.name, s.id, s.model, joint.type, zero_tick, zero_value,
                           s.direction, s.gear_ratio, lower, upper, n, multi)
             homing = 0
+            sources = (LimitSource.CONFIG, LimitSource.CONFIG)
             if cal is not None:
-                a, b = sorted((jm.to_joint_raw(cal.min_tick), jm.to_joint_raw(cal.max_tick)))
+                a, b = calibrated_range(jm, cal)
+                sources = (LimitSource.CALIBRATION if a > lower else LimitSource.CONFIG,
+                           LimitSource.CALIBRATION if b < upper else LimitSource.CONFIG)
                 lower, upper = max(lower, a), min(upper, b)
                 homing = cal.homing_offset
             elif jm.wrap_inside():
@@ -221,7 +263,7 @@ class JointMapping:
                 upper) else rest
             maps.append(JointMap(joint.name, s.id, s.model, joint.type, zero_tick, zero_value,
                                  s.direction, s.gear_ratio, lower, upper, n, multi, rest,
-                                 homing))
+                                 homing, *sources))
         if not maps:
             raise ConfigError(f"arm {spec.name!r}: the bus section drives no joint", None,
                               "list the servos under bus.servos by joint name")

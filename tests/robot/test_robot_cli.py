@@ -147,7 +147,7 @@ def test_limit_errors_use_the_given_unit(capsys: pytest.CaptureFixture[str]) -> 
     # without --deg, -30 is taken as radians: the hint asks about --deg
     assert main(["move-joints", "so101", "0", "-30", "60", "20", "0", "0"]) == 2
     err = capsys.readouterr().err
-    assert "-30 rad" in err and "did you forget --deg?" in err
+    assert "-30 rad" in err and "did you mean --deg?" in err
     # a value outside the limits in degrees too gets no such hint
     assert main(["move-joints", "so101", "0", "-300", "0", "0", "0", "0"]) == 2
     assert "forget --deg" not in capsys.readouterr().err

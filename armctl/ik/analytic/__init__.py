@@ -20,7 +20,7 @@ from armctl.ik.analytic.classify import (
     describe,
 )
 from armctl.ik.analytic.errors import NoDecompositionError
-from armctl.ik.analytic.solve_all import ACCEPT, IKSolutions, ik_all
+from armctl.ik.analytic.solve_all import ACCEPT, IKSolutions, acceptance, ik_all
 from armctl.ik.analytic.solver import solve
 
 __all__ = [
@@ -31,6 +31,7 @@ __all__ = [
     "IKSolutions",
     "NoDecompositionError",
     "Tolerances",
+    "acceptance",
     "classify",
     "decomposition",
     "describe",

@@ -50,6 +50,11 @@ class Family(Enum):
     GENERAL_6R = "general 6R: Raghavan-Roth elimination, 24 x 24 eigenvalue problem"
 
 
+#: Most joint triples tried for a position goal, in order (1, 2, 3), (1, 2, 4), ...: an arm
+#: of 7 joints has 35, while a long chain whose axes are parallel or meet would be searched
+#: for minutes (200 joints have 1.3 million triples).
+MAX_TRIPLES = 2000
+
 #: Maximum solution count per family (for buffers and documentation).
 MAX_SOLUTIONS = {
     Family.SPHERICAL_WRIST: 8, Family.SPHERICAL_SHOULDER: 8, Family.THREE_PARALLEL: 8,
@@ -117,8 +122,11 @@ class Decomposition:
         """One line: the family, and the joints held as free parameters."""
         text = self.family.value
         if self.free:
-            names = ", ".join(model.joint_names[j] for j in self.free)
-            text += f"; free parameter: {names}"
+            shown = [model.joint_names[j] for j in self.free]
+            more = ""
+            if len(shown) > 6:  # a long chain: the first and last few
+                shown, more = [*shown[:3], "...", *shown[-2:]], f" ({len(self.free)} joints)"
+            text += f"; free parameter: {', '.join(shown)}{more}"
         return text
 
 
@@ -248,7 +256,15 @@ def _classify(model: KinematicModel, frame: str | None, kind: GoalKind,
         if n < 3:
             raise NoDecompositionError(f"arm {model.name!r} has {n} joints before its frame; "
                                        "a position goal needs 3", hint)
-        for tri in itertools.combinations(range(n), 3):
+        h = chain.h
+        if np.all(np.linalg.norm(np.cross(h[0], h), axis=1) <= tol.angle):
+            raise NoDecompositionError(f"no three joints of arm {model.name!r} can place its "
+                                       f"frame in space: its {n} axes are parallel", hint)
+        for count, tri in enumerate(itertools.combinations(range(n), 3)):
+            if count == MAX_TRIPLES:  # a long chain of concurrent axes: stop searching
+                raise NoDecompositionError(
+                    f"none of the first {MAX_TRIPLES} triples of the {n} joints of arm "
+                    f"{model.name!r} can place its frame in space", hint)
             sel = list(tri)
             planar = all(_parallel(chain.h[sel[0]], chain.h[k], tol) for k in sel[1:])
             if planar or _common_point(chain.h[sel], chain.o[sel], tol) is not None:

@@ -19,12 +19,14 @@ from armctl.ik.goals import DirectionGoal, Goal, PoseGoal, PositionGoal
 from armctl.kinematics.model import KinematicModel
 from armctl.spatial import orthonormalize, transform_inverse
 
-__all__ = ["ACCEPT", "IKSolutions", "Target", "as_target", "ik_all"]
+__all__ = ["ACCEPT", "IKSolutions", "Target", "acceptance", "as_target", "ik_all"]
 
 Array = npt.NDArray[np.float64]
 
 #: Largest position [m] and rotation [rad] error of a returned solution.
 ACCEPT = 1e-9
+#: Rows closer than this [rad]/[m] on every joint (modulo 2 pi for rotary ones) are the same.
+_SAME = 1e-6
 _KIND = {GoalKind.POSE: POSE, GoalKind.DIRECTION: DIRECTION, GoalKind.POSITION: POSITION}
 _CODE = {Family.SPHERICAL_WRIST: SPHERICAL, Family.SPHERICAL_SHOULDER: SPHERICAL,
          Family.THREE_PARALLEL: PARALLEL, Family.THREE_PARALLEL_OUTER: PARALLEL,
@@ -73,6 +75,34 @@ class IKSolutions:
         v = self.valid
         return v[0] if len(v) else None
 
+    def distinct(self, rotary: npt.ArrayLike) -> IKSolutions:
+        """One row per distinct solution, without the 2 pi variants.
+
+        Rows equal modulo 2 pi on every rotary joint are variants of one solution (the same
+        pose of the arm). Each solution is represented by its variant inside the limits nearest
+        to ``q_ref`` (the nearest variant when none is inside), so :attr:`best` is unchanged;
+        the rows stay sorted by distance to ``q_ref``.
+
+        Args:
+            rotary: ``(dof,)`` mask of the rotary joints.
+        """
+        rot = np.asarray(rotary, dtype=bool)
+        reps: list[int] = []
+        for i in range(len(self)):
+            for c, r in enumerate(reps):
+                d = np.abs(self.q[i] - self.q[r])
+                d = np.where(rot, np.minimum(d % (2.0 * np.pi), (-d) % (2.0 * np.pi)), d)
+                if float(np.max(d, initial=0.0)) < _SAME:
+                    if self.within_limits[i] and not self.within_limits[r]:
+                        reps[c] = i
+                    break
+            else:
+                reps.append(i)
+        keep = np.array(sorted(reps), dtype=int)
+        return IKSolutions(self.q[keep], self.within_limits[keep], self.position_error[keep],
+                           self.rotation_error[keep], self.singular, self.family, self.free,
+                           self.q_ref)
+
 
 @dataclass(frozen=True)
 class Target:
@@ -93,6 +123,18 @@ class Target:
     position: Array
     direction: Array
     axis: Array
+
+
+def acceptance(goal: Goal) -> float:
+    """The largest FK error [m] and [rad] at which a closed-form solution meets ``goal``.
+
+    The goal's own tolerance (the smaller of its position and rotation tolerances), never below
+    :data:`ACCEPT`: the single answer of the ``analytic`` solver and the full list of
+    :func:`ik_all` accept the same solutions. (Some goals are met only to about 1e-6: an arm
+    whose CAD angles are rounded, such as 1.5708 for pi/2, cannot point its tool exactly
+    along an axis.)
+    """
+    return max(min(goal.tolerance.position, goal.tolerance.rotation), ACCEPT)
 
 
 def as_target(goal: Goal | npt.ArrayLike, frame: str | None = None) -> Target:

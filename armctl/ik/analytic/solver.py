@@ -12,8 +12,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from armctl.config.schema import JointType
 from armctl.errors import InputError
-from armctl.ik.analytic.solve_all import ik_all
+from armctl.ik.analytic.solve_all import acceptance, ik_all
 from armctl.ik.goals import Goal
 from armctl.ik.options import IKOptions
 from armctl.ik.result import IKResult, IKStatus, finish
@@ -50,17 +51,18 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: npt.NDArray[np.flo
         raise InputError(f"the analytic solver takes one goal, got {len(goals)}; use solver "
                          "'nlp' or 'dls' for several frames at once")
     goal = goals[0]
-    tol = min(goal.tolerance.position, goal.tolerance.rotation)
-    sols = ik_all(model, goal, q_ref=q0, tol=max(tol, 1e-9))
+    sols = ik_all(model, goal, q_ref=q0, tol=acceptance(goal))
     note = "singular goal (a continuum of solutions; the nearest representative)" if (
         sols.singular) else ""
     best = sols.best
+    distinct = sols.distinct([t is not JointType.PRISMATIC for t in model.joint_types])
     if best is not None:
         q, status = best, IKStatus.CONVERGED
-        msg = f"{int(sols.within_limits.sum())} of {len(sols)} solutions inside the limits"
+        msg = (f"{int(distinct.within_limits.sum())} of {len(distinct)} distinct solutions "
+               "inside the limits")
     elif len(sols):
         q, status = sols.q[0], IKStatus.INFEASIBLE
-        msg = f"all {len(sols)} solutions are outside the joint limits"
+        msg = f"all {len(distinct)} distinct solutions are outside the joint limits"
     else:
         q, status = q0, IKStatus.UNREACHABLE
         msg = "no solution: the goal is out of reach"

@@ -184,12 +184,24 @@ class Problem:
         residuals.append(ca.sqrt(lam) * (q - q_ref))
         res = ca.vertcat(*residuals)
         g = ca.vertcat(*rows) if rows else ca.SX(0, 1)
-        self.lbg = np.array(lbg)
-        self.ubg = np.zeros(len(lbg))
         self.n_constraints = len(lbg)
+        ubg = [0.0] * len(lbg)
+        if method is Method.SQP:
+            # One row without bounds, for a defect of CasADi's qrqp (sqpmethod's QP solver, up
+            # to at least 3.8.2): its dual step lists one breakpoint per multiplier that changes
+            # sign plus the step's end, up to nz + 1 integers, in a buffer of nz (nz: joints
+            # plus constraint rows, the number of the QP's multipliers). When every
+            # multiplier of the QP is non-zero and all change sign in one step (every joint at a
+            # bound; common on an arm with narrow limits and no other constraint rows, such as
+            # the 7-joint Panda) it writes one integer past its heap block, and glibc aborts
+            # later ("munmap_chunk(): invalid pointer"). qrqp never activates a row without
+            # bounds, so its multiplier stays zero and at most nz breakpoints remain.
+            g, lbg, ubg = ca.vertcat(g, ca.SX.zeros(1, 1)), [*lbg, -np.inf], [*ubg, np.inf]
+        self.lbg = np.array(lbg)
+        self.ubg = np.array(ubg)
         jac = ca.jacobian(res, q)
         lam_f = ca.SX.sym("lam_f")
-        lam_g = ca.SX.sym("lam_g", self.n_constraints)
+        lam_g = ca.SX.sym("lam_g", len(lbg))
         # Gauss-Newton plus Levenberg-Marquardt damping: bounded steps where the goals leave
         # directions free (redundancy, position-only goals) and the regularisation is tiny
         hess = 2 * lam_f * (jac.T @ jac + damping * ca.SX.eye(model.dof))
@@ -247,7 +259,7 @@ class Problem:
         """
         model = self.model
         kw: dict[str, Any] = {"x0": q0, "p": params, "lbx": model.lower, "ubx": model.upper}
-        if self.n_constraints:
+        if len(self.lbg):
             kw["lbg"], kw["ubg"] = self.lbg, self.ubg
         if warm and self._warm is not None and np.array_equal(self._warm[0], q0):
             kw["lam_x0"], kw["lam_g0"] = self._warm[1], self._warm[2]

@@ -19,6 +19,7 @@ import select
 import threading
 import time
 import tty
+from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
 __all__ = ["SimServoSpec", "SimulatedBus"]
 
 _EARLY = 3e-4  # [s] how early a reply that is not the last of a group may be sent
+_INLINE = 5e-3  # [s] replies due within this are waited for at once; later ones are queued
 _REPLY_FAULTS = (F.DroppedReply, F.CorruptedReply, F.TruncatedReply, F.LateReply, F.LatencySpike)
 
 
@@ -106,6 +108,7 @@ class SimulatedBus:
         self._wire = FeetechWire() if protocol is Protocol.FEETECH or p1 else DxlWire()
         self._dispatch = Dispatcher(self._wire, protocol1=p1)
         self._faults: list[F.Fault] = []
+        self._skips: dict[int, int] = {}  # id(reply fault) -> replies to let through first
         self._scheduled: list[tuple[float, F.Fault]] = []
         self._lock = threading.RLock()
         self._thread: threading.Thread | None = None
@@ -113,6 +116,7 @@ class SimulatedBus:
         self._master = self._slave = -1
         self._wake_r = self._wake_w = -1
         self._wire_free = 0.0
+        self._outbox: deque[tuple[float, bytes, bool]] = deque()  # (due, packet, last of group)
         self._started_at = 0.0
         self.port = ""
         self.requests = 0
@@ -161,6 +165,7 @@ class SimulatedBus:
         tty.setraw(self._master)
         self.port = os.ttyname(self._slave)
         self._wake_r, self._wake_w = os.pipe()
+        self._outbox.clear()
         self._stop.clear()
         self._started_at = time.monotonic()
         self._thread = threading.Thread(target=self._run, name="armctl-simbus", daemon=True)
@@ -179,6 +184,14 @@ class SimulatedBus:
             with contextlib.suppress(OSError):
                 os.close(fd)
         self._master = self._slave = self._wake_r = self._wake_w = -1
+
+    def unplug(self) -> None:
+        """Pull the adapter out: stop answering and remove the pty while clients have it open.
+
+        Their next read or write of the port fails and its device path is gone, as when a USB
+        adapter is unplugged.
+        """
+        self.stop()
 
     def __enter__(self) -> SimulatedBus:
         self.start()
@@ -288,6 +301,9 @@ class SimulatedBus:
                 servo = self.servo(fault.servo_id)
                 servo.model_override = fault.model_number
                 servo.set(Register.MODEL_NUMBER, fault.model_number)
+            elif isinstance(fault, F.Obstacle):
+                self.servo(fault.servo_id).block_at(fault.ticks)
+            self._skips.pop(id(fault), None)  # a new fault acts on the next reply
             self._faults.append(fault)
 
     def clear_faults(self, servo_id: int | None = None) -> None:
@@ -300,6 +316,7 @@ class SimulatedBus:
                     if sid is not None:
                         s = self.servo(sid)
                         s.alarm_bits, s.locked_up, s.model_override = 0, False, None
+                        s.obstacle = None
                         s.set(Register.HARDWARE_ERROR, 0)
                         s.set(Register.MODEL_NUMBER, s.table.model_number)
                     continue
@@ -341,19 +358,34 @@ class SimulatedBus:
             isinstance(f, F.MissingServo) and f.servo_id == servo.id for f in self._faults)
 
     def _take_reply_faults(self, sid: int) -> list[F.Fault]:
-        """The reply faults that hit this reply (using up one of their count)."""
+        """The reply faults that hit this reply (using up one of their count).
+
+        A fault with ``every`` = N lets N - 1 replies through after each one it hits.
+        """
         hit: list[F.Fault] = []
         keep: list[F.Fault] = []
+        skips: dict[int, int] = {}
         for f in self._faults:
             if isinstance(f, _REPLY_FAULTS) and getattr(f, "servo_id", sid) == sid:
-                hit.append(f)
-                if f.count is not None and f.count > 1:
-                    keep.append(_with_count(f, f.count - 1))
-                elif f.count is None:
+                wait = self._skips.get(id(f), 0)
+                if wait > 0:  # this reply passes
                     keep.append(f)
+                    skips[id(f)] = wait - 1
+                    continue
+                hit.append(f)
+                every = f.every
+                if f.count is not None and f.count > 1:
+                    f = _with_count(f, f.count - 1)
+                elif f.count is not None:
+                    continue  # used up
+                keep.append(f)
+                skips[id(f)] = every - 1
             else:
                 keep.append(f)
+                if id(f) in self._skips:
+                    skips[id(f)] = self._skips[id(f)]
         self._faults = keep
+        self._skips = skips
         return hit
 
     # ---- the bus thread ---------------------------------------------------------------------
@@ -362,8 +394,11 @@ class SimulatedBus:
         last_rx = time.monotonic()
         while not self._stop.is_set():
             self._fire_scheduled()
+            next_due = self._flush_outbox()
+            timeout = 0.02 if next_due is None else min(0.02, max(0.0, next_due -
+                                                                  time.monotonic()))
             try:
-                ready, _, _ = select.select([self._master, self._wake_r], [], [], 0.02)
+                ready, _, _ = select.select([self._master, self._wake_r], [], [], timeout)
             except (OSError, ValueError):
                 return
             now = time.monotonic()
@@ -401,11 +436,17 @@ class SimulatedBus:
 
     def _send(self, ins: Instruction, replies: list[Reply],
               received: float) -> None:
+        """Queue the replies to an instruction at the times they are due, in wire order.
+
+        A late reply (:class:`~.faults.LateReply`, :class:`~.faults.LatencySpike`) is held
+        back like bytes in a slow USB adapter: the replies after it wait behind it, but the bus
+        goes on hearing instructions meanwhile.
+        """
         t = received
         tick = 10.0 / self.baudrate
         if self.wire_timing:
             t = max(received, self._wire_free) + ins.size * tick
-        items: list[tuple[bytes, float]] = []  # (packet, when it is due)
+        items: list[tuple[float, bytes]] = []  # (when it is due, packet)
         for servo, pkt in replies:
             extra = 0.0
             if servo is not None:
@@ -421,22 +462,40 @@ class SimulatedBus:
             if self.wire_timing:
                 t += (servo.return_delay if servo is not None else 0.0) + len(pkt) * tick
             if pkt:
-                items.append((pkt, t + extra))
+                items.append((t + extra, pkt))
+        self._wire_free = t
+        for i, (due, pkt) in enumerate(items):
+            if self._outbox:  # the line is in order: nothing overtakes a held-back reply
+                due = max(due, self._outbox[-1][0])
+            self._outbox.append((due, pkt, i == len(items) - 1))
+        self._flush_outbox()
+
+    def _flush_outbox(self) -> float | None:
+        """Write the queued replies that are due (sleeping for ones due within 5 ms).
+
+        Sleeping for less than the OS timer allows would make every reply late; so a reply
+        that is not the last of its group may go out up to ``_EARLY`` early. The last one
+        (which completes the host's transaction) is never early.
+
+        Returns:
+            When the next queued reply is due, or ``None`` when none is queued.
+        """
         pending = bytearray()
-        for i, (pkt, due) in enumerate(items):
-            # Sleeping for less than the OS timer allows would make every reply late; so a
-            # reply that is not the last may go out up to _EARLY early. The last one (which
-            # completes the host's transaction) is never early.
+        while self._outbox:
+            due, pkt, last = self._outbox[0]
             wait = due - time.monotonic()
-            if wait > (0.0 if i == len(items) - 1 else _EARLY):
+            if wait > _INLINE:
+                break
+            if wait > (0.0 if last else _EARLY):
                 self._write(pending)
                 pending.clear()
                 time.sleep(wait)
             if self.trace is not None:
                 self.trace.append(("tx", pkt))
             pending += pkt
+            self._outbox.popleft()
         self._write(pending)
-        self._wire_free = t
+        return self._outbox[0][0] if self._outbox else None
 
     def _write(self, data: bytes | bytearray) -> None:
         if data:

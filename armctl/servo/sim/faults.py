@@ -2,10 +2,12 @@
 
 Faults that act on replies (:class:`DroppedReply`, :class:`CorruptedReply`,
 :class:`TruncatedReply`, :class:`LateReply`, :class:`LatencySpike`) are used up one reply at a
-time (``count`` replies; ``count=None`` means until cleared). The others are states:
+time (``count`` replies; ``count=None`` means until cleared), and act on one reply in ``every``
+(1: each; 2: every other one, an intermittent fault that a retry hides). The others are states:
 :class:`MissingServo` (silent, ignores every instruction), :class:`HardwareAlarm` (latched error
-bits), :class:`WrongModel` (reports another model number) and :class:`LockupAfterOverload`
-(overload alarm, then silence until the servo is rebooted or power-cycled).
+bits), :class:`WrongModel` (reports another model number), :class:`LockupAfterOverload`
+(overload alarm, then silence until the servo is rebooted or power-cycled) and :class:`Obstacle`
+(the shaft is blocked at a position: the servo answers normally but cannot get past it).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ __all__ = [
     "LatencySpike",
     "LockupAfterOverload",
     "MissingServo",
+    "Obstacle",
     "TruncatedReply",
     "WrongModel",
 ]
@@ -35,6 +38,7 @@ class DroppedReply:
 
     servo_id: int
     count: int | None = 1
+    every: int = 1
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,7 @@ class CorruptedReply:
 
     servo_id: int
     count: int | None = 1
+    every: int = 1
 
 
 @dataclass(frozen=True)
@@ -52,15 +57,20 @@ class TruncatedReply:
     servo_id: int
     count: int | None = 1
     keep: int = 5
+    every: int = 1
 
 
 @dataclass(frozen=True)
 class LateReply:
-    """The reply is sent ``delay`` [s] late (past the host's timeout for 60 ms)."""
+    """The reply is sent ``delay`` [s] late (past the host's timeout for 60 ms).
+
+    Like bytes held in a slow USB adapter: the replies after it on the line wait behind it.
+    """
 
     servo_id: int
     count: int | None = 1
     delay: float = 0.06
+    every: int = 1
 
 
 @dataclass(frozen=True)
@@ -69,6 +79,7 @@ class LatencySpike:
 
     count: int | None = 1
     delay: float = 0.01
+    every: int = 1
 
 
 @dataclass(frozen=True)
@@ -101,8 +112,20 @@ class LockupAfterOverload:
     servo_id: int
 
 
+@dataclass(frozen=True)
+class Obstacle:
+    """Something blocks the shaft at present position ``ticks`` (``None``: where it is now).
+
+    The servo answers and takes goals as usual, but the shaft cannot move past that position
+    from the side it is on; pushing against it, the servo reports a high load (no alarm).
+    """
+
+    servo_id: int
+    ticks: int | None = None
+
+
 Fault = (DroppedReply | CorruptedReply | TruncatedReply | LateReply | LatencySpike | MissingServo
-         | HardwareAlarm | WrongModel | LockupAfterOverload)
+         | HardwareAlarm | WrongModel | LockupAfterOverload | Obstacle)
 
 FAULT_KINDS: dict[str, type] = {
     "dropped_reply": DroppedReply,
@@ -114,4 +137,5 @@ FAULT_KINDS: dict[str, type] = {
     "hardware_alarm": HardwareAlarm,
     "wrong_model": WrongModel,
     "lockup_after_overload": LockupAfterOverload,
+    "obstacle": Obstacle,
 }

@@ -10,8 +10,10 @@ Format::
 
 Keys per fault: ``kind`` (see :data:`~armctl.servo.sim.faults.FAULT_KINDS`), ``at`` [s] after
 the bus started (default 0 = now), ``servo`` (every kind but ``latency_spike``), ``count``
-(replies affected; ``null`` = until cleared), ``delay`` [s], ``keep`` [bytes],
-``alarm`` (``input_voltage``, ``overheating``, ``encoder``, ``overload``), ``model_number``.
+(replies affected; ``null`` = until cleared), ``every`` (act on one reply in N: an intermittent
+fault), ``delay`` [s], ``keep`` [bytes],
+``alarm`` (``input_voltage``, ``overheating``, ``encoder``, ``overload``), ``model_number``,
+``ticks`` (where an ``obstacle`` blocks the shaft; default: where it is).
 """
 
 from __future__ import annotations
@@ -25,15 +27,16 @@ from armctl.servo.sim import faults as F
 __all__ = ["load_scenario"]
 
 _FIELDS: dict[type, tuple[str, ...]] = {
-    F.DroppedReply: ("count",),
-    F.CorruptedReply: ("count",),
-    F.TruncatedReply: ("count", "keep"),
-    F.LateReply: ("count", "delay"),
-    F.LatencySpike: ("count", "delay"),
+    F.DroppedReply: ("count", "every"),
+    F.CorruptedReply: ("count", "every"),
+    F.TruncatedReply: ("count", "keep", "every"),
+    F.LateReply: ("count", "delay", "every"),
+    F.LatencySpike: ("count", "delay", "every"),
     F.MissingServo: (),
     F.HardwareAlarm: ("alarm",),
     F.WrongModel: ("model_number",),
     F.LockupAfterOverload: (),
+    F.Obstacle: ("ticks",),
 }
 
 
@@ -65,11 +68,15 @@ def load_scenario(path: str | Path) -> list[tuple[float, F.Fault]]:
             kw["count"] = None if item.value["count"] is None else item.integer("count", lo=1)
         if "delay" in fields and item.has("delay"):
             kw["delay"] = item.number("delay", nonnegative=True)
+        if "every" in fields and item.has("every"):
+            kw["every"] = item.integer("every", lo=1)
         if "keep" in fields and item.has("keep"):
             kw["keep"] = item.integer("keep", lo=0)
         if "alarm" in fields and item.has("alarm"):
             kw["alarm"] = item.choice("alarm", F.Alarm, [a.value for a in F.Alarm])
         if "model_number" in fields and item.has("model_number"):
             kw["model_number"] = item.integer("model_number", lo=0, hi=65535)
+        if "ticks" in fields and item.has("ticks"):
+            kw["ticks"] = item.integer("ticks", lo=-(2**31), hi=2**31 - 1)
         out.append((item.number("at", 0.0, nonnegative=True), cls(**kw)))
     return out

@@ -61,6 +61,8 @@ class SimServo:
         self.target = float(position)  # [tick], in encoder frame
         self.alarm_bits = 0
         self.locked_up = False
+        #: An obstacle: (encoder position [tick], side +1/-1/0 the shaft must stay on), or None.
+        self.obstacle: tuple[float, int] | None = None
         self.model_override: int | None = None
         self.registered: tuple[int, bytes] | None = None
         self.t = time.monotonic()
@@ -160,6 +162,29 @@ class SimServo:
         self.target = self.actual
         self.velocity = 0.0
 
+    def block_at(self, ticks: int | None) -> None:
+        """Put an obstacle at present position ``ticks`` (``None``: where the shaft is now).
+
+        The shaft cannot move past it from the side it is on (both ways when it is there).
+        """
+        self._update(time.monotonic())
+        at = self.actual
+        if ticks is not None:
+            delta = ticks - self.present_position()
+            if not self._multi_turn():
+                n = self.table.ticks_per_rev
+                delta = (delta + n // 2) % n - n // 2
+            at = self.actual + delta
+        side = 0 if abs(self.actual - at) < 0.5 else (1 if self.actual > at else -1)
+        self.obstacle = (at, side)
+
+    def _pressing(self) -> bool:
+        """Whether the shaft is held by the obstacle while the goal lies beyond it."""
+        if self.obstacle is None or not self.torque:
+            return False
+        at, side = self.obstacle
+        return abs(self.actual - at) < 0.5 and (side == 0 or (self.target - at) * side < 0)
+
     # ---- dynamics -------------------------------------------------------------------------
     def _limits(self) -> tuple[float, float]:
         vmax = self.table.max_speed
@@ -192,6 +217,10 @@ class SimServo:
             self.accel = dv / h
             self.velocity += dv
             self.actual += self.velocity * h
+            if self.obstacle is not None:
+                at, side = self.obstacle
+                if (side == 0 and self.actual != at) or (self.actual - at) * side < 0:
+                    self.actual, self.velocity, self.accel = at, 0.0, 0.0  # stopped by it
             if abs(self.target - self.actual) < 0.5 and abs(self.velocity) < amax * _STEP:
                 self.actual, self.velocity, self.accel = self.target, 0.0, 0.0
                 break
@@ -202,6 +231,8 @@ class SimServo:
         if self.torque:
             vmax, amax = self._limits()
             load = 0.35 * self.accel / amax + 0.15 * self.velocity / vmax + 0.05
+        if self._pressing():
+            load = math.copysign(0.95, self.target - self.actual)
         if self.alarm_bits & 0x20:
             load = 1.0
         load = max(-1.0, min(1.0, load))
