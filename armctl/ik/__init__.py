@@ -1,35 +1,47 @@
-"""Inverse kinematics: goals, solvers chosen by name, and their common result."""
+"""Inverse kinematics: goals, solvers chosen by name, and their common result.
 
+Every public name of :mod:`armctl.ik.goals` (each goal type, :class:`GoalKind`,
+:class:`Tolerance`, ...) is exported here as it is defined there, so a new goal type needs no
+line in this file.
+"""
+
+from armctl.ik import goals as _goals
 from armctl.ik.batch import IKBatchResult, solve_batch
-from armctl.ik.goals import (
-    DirectionGoal,
-    Goal,
-    GoalLike,
-    OrientationGoal,
-    PoseGoal,
-    PositionGoal,
-    Tolerance,
-    as_goals,
-)
+from armctl.ik.goals import *  # noqa: F403
+from armctl.ik.goals import Goal, GoalLike, Tolerance, as_goals
 from armctl.ik.nullspace import KeepOut, NullSpace
 from armctl.ik.options import IKOptions
-from armctl.ik.registry import available_solvers, get_solver, solve
-from armctl.ik.result import GoalError, IKResult, IKStatus, evaluate, finish
+from armctl.ik.registry import (
+    Capabilities,
+    SolverInfo,
+    available_solvers,
+    get_solver,
+    solve,
+    solver_info,
+    solver_infos,
+)
+from armctl.ik.result import (
+    ConstraintViolation,
+    GoalResidual,
+    IKResult,
+    IKStatus,
+    evaluate,
+    finish,
+)
 
 __all__ = [
-    "DirectionGoal",
+    "Capabilities",
+    "ConstraintViolation",
     "Goal",
-    "GoalError",
     "GoalLike",
+    "GoalResidual",
     "IKBatchResult",
     "IKOptions",
     "IKResult",
     "IKStatus",
     "KeepOut",
     "NullSpace",
-    "OrientationGoal",
-    "PoseGoal",
-    "PositionGoal",
+    "SolverInfo",
     "Tolerance",
     "as_goals",
     "available_solvers",
@@ -38,4 +50,7 @@ __all__ = [
     "get_solver",
     "solve",
     "solve_batch",
+    "solver_info",
+    "solver_infos",
 ]
+__all__ += [name for name in _goals.__all__ if name not in __all__]

@@ -1,4 +1,9 @@
-"""Compiled cyclic coordinate descent (seed section 11): the closed-form angle per joint."""
+"""Compiled cyclic coordinate descent: the closed-form angle per joint.
+
+The step follows the CCD derivation of the lecture (L. Kavan, *Metody skeletální animace*, 2002).
+CCD has forms for position, orientation, direction and pose goals; other kinds (look-at)
+contribute nothing here, and the solver registry refuses them for ``ccd`` and ``ccd-jt``.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +12,7 @@ import math
 import numba as nb
 import numpy as np
 
-from armctl.ik._residual import DIRECTION, NJIT, ORIENTATION, POSE
+from armctl.ik._residual import DIRECTION, NJIT, ORIENTATION, POSE, has_position
 from armctl.kinematics._kernels import _step, fk_into
 
 
@@ -17,7 +22,7 @@ def ccd_coefficients(w: np.ndarray, o: np.ndarray, gt: np.ndarray, gd: np.ndarra
                      rho2: float) -> tuple[float, float, float]:
     """``k1, k2, k3`` of ``g(t) = k1 (1 - cos t) + k2 cos t + k3 sin t`` for revolute joint ``j``.
 
-    ``g`` is the seed's objective ``w1 g1 + w2 g2`` summed over the goals that ``j`` moves:
+    ``g`` is the lecture's objective ``w1 g1 + w2 g2`` summed over the goals that ``j`` moves:
     ``g1`` the dot product of the joint-to-goal and rotated joint-to-effector vectors, ``g2`` the
     sum over the constrained axes of goal-axis . rotated current axis; ``w1`` is the goal weight
     and ``w2`` the goal weight times ``rho2`` [m^2]. Rotating a vector ``a`` about the unit axis
@@ -36,7 +41,7 @@ def ccd_coefficients(w: np.ndarray, o: np.ndarray, gt: np.ndarray, gd: np.ndarra
             # part 0: position; 1-3: orientation axes (all three for orientation/pose goals,
             # the tool axis for a direction goal)
             if part == 0:
-                if t == ORIENTATION:
+                if not has_position(t):
                     continue
                 wt = gw[g]
                 a0, a1, a2 = p[0, 3] - o[0], p[1, 3] - o[1], p[2, 3] - o[2]
@@ -122,7 +127,7 @@ def _ccd_sweep(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, jd: np.ndarr
             num = 0.0
             den = 0.0
             for g in range(gf.shape[0]):
-                if mask[g, j] == 0 or gt[g] == ORIENTATION:
+                if mask[g, j] == 0 or not has_position(gt[g]):
                     continue
                 num += gw[g] * (w[0] * (gd[g, 0] - pose[g, 0, 3])
                                 + w[1] * (gd[g, 1] - pose[g, 1, 3])

@@ -4,6 +4,25 @@ The pieces live beside it: goal residuals in :mod:`armctl.ik._residual` (the pac
 is described there), the joint steps in :mod:`armctl.ik._steps`, CCD in :mod:`armctl.ik._ccd`,
 null-space objectives in :mod:`armctl.ik._objectives`.
 
+:func:`solve` takes its inputs in four groups, plain tuples of arrays and numbers (numba unboxes
+a plain tuple in a fraction of a microsecond; a named tuple or a class would cost more per call):
+
+* ``arm`` = ``(lower, upper, jd, parent, fd, paths)``: the position limits ``(n,)`` [rad]/[m] and
+  the compiled tree's ``joints``, ``parent``, ``frames`` and ``paths``
+  (:class:`armctl.kinematics.compiled_tree.CompiledTree`); built once per model by
+  :func:`armctl.ik._pack.model_arrays` (``ModelArrays.kernel``).
+* ``goals`` = ``(gf, gt, gd, gw, gtol, mask)``: the packed goals (layout in
+  :mod:`armctl.ik._residual`), ``GoalArrays.kernel`` of :func:`armctl.ik._pack.pack_goals`.
+* ``run`` = ``(method, prm, max_iter, attempts, time_limit)``: the method (:data:`PINV`,
+  :data:`DLS`, :data:`JT`, :data:`CCD` or :data:`CCD_JT`), its parameter vector (``P_*``
+  indices), the iterations per attempt, the largest number of attempts (1 + restarts) and the
+  wall time [s] after which no new attempt starts and a running one stops (checked every 256
+  iterations; <= 0 for none).
+* ``nullspace`` = ``(nsw, pref, spheres)``: the null-space weights ``(4,)`` (all zero: no
+  null-space term; only PINV and DLS use them), the preferred posture ``(n,)`` and the keep-out
+  spheres ``(S, 5)`` (frame index, centre [m], radius [m]), from
+  :func:`armctl.ik.nullspace.ns_arrays`.
+
 Every returned ``q`` lies inside the limits: attempts clamp ``q`` after each step, except the
 DLS restarts that first ignore the limits, whose result is wrapped by 2 pi or clamped into them
 before it is used. Random restarts draw uniformly inside the limits from a splitmix64 generator
@@ -57,6 +76,15 @@ __all__ = [
     "TIME_LIMIT", "ccd_angle", "ccd_coefficients", "goal_error", "joint_frames", "ns_objective",
     "rand01", "solve", "solve_batch",
 ]
+
+#: ``(lower, upper, jd, parent, fd, paths)``, see the module docstring.
+ArmGroup = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+#: ``(gf, gt, gd, gw, gtol, mask)``.
+GoalGroup = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+#: ``(method, prm, max_iter, attempts, time_limit)``.
+RunGroup = tuple[int, np.ndarray, int, int, float]
+#: ``(nsw, pref, spheres)``.
+NullSpaceGroup = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 _OPTS = NJIT
 _OPTS_CLOCK: dict[str, Any] = {"cache": True, "error_model": "numpy"}  # these read the clock
@@ -117,39 +145,18 @@ def _now() -> float:
 
 # ---- one solve with restarts ------------------------------------------------------------------
 @nb.njit(**_OPTS_CLOCK)
-def solve(q0: np.ndarray, lower: np.ndarray, upper: np.ndarray, jd: np.ndarray,
-          parent: np.ndarray, fd: np.ndarray, paths: np.ndarray, gf: np.ndarray, gt: np.ndarray,
-          gd: np.ndarray, gw: np.ndarray, gtol: np.ndarray, mask: np.ndarray, method: int,
-          prm: np.ndarray, max_iter: int, attempts: int, time_limit: float, state: np.ndarray,
-          nsw: np.ndarray, pref: np.ndarray, spheres: np.ndarray, q_out: np.ndarray,
+def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
+          nullspace: NullSpaceGroup, state: np.ndarray, q_out: np.ndarray,
           trace: np.ndarray) -> tuple[int, int, int, int]:
     """Solve from ``q0``, then from random starts, until a start converges or budgets end.
 
     Args:
         q0: Start ``(n,)`` (clamped into the limits).
-        lower: Lower joint limits ``(n,)``.
-        upper: Upper joint limits ``(n,)``.
-        jd: Packed joints (see :mod:`armctl.kinematics._kernels`).
-        parent: Parent joint of every joint, -1 for the base.
-        fd: Packed frame offsets.
-        paths: Joint paths of the frames.
-        gf: Goal frames (see the module docstring, also for ``gt``, ``gd``, ``gw``, ``gtol``,
-            ``mask``).
-        gt: Goal types.
-        gd: Goal targets.
-        gw: Goal weights.
-        gtol: Goal tolerances.
-        mask: Which joints move which goal.
-        method: :data:`PINV`, :data:`DLS`, :data:`JT`, :data:`CCD` or :data:`CCD_JT`.
-        prm: Parameters (``P_*`` indices).
-        max_iter: Iterations per attempt.
-        attempts: Largest number of attempts (1 + restarts).
-        time_limit: Wall time [s] after which no new attempt starts and a running one stops
-            (checked every 256 iterations); <= 0 for none.
+        arm: ``(lower, upper, jd, parent, fd, paths)`` (see the module docstring).
+        goals: ``(gf, gt, gd, gw, gtol, mask)``.
+        run: ``(method, prm, max_iter, attempts, time_limit)``.
+        nullspace: ``(nsw, pref, spheres)``.
         state: RNG state (advanced).
-        nsw: Null-space weights (all zero: no null-space term; only PINV and DLS use them).
-        pref: Preferred posture for the posture objective.
-        spheres: ``(S, 5)`` keep-out spheres: frame index, centre [m], radius [m].
         q_out: Receives the converged ``q``, or the one with the lowest error found.
         trace: ``(T, 2)``: when ``T > 0`` the first attempt records the largest position and
             rotation error before each iteration (NaN after it ends).
@@ -157,6 +164,10 @@ def solve(q0: np.ndarray, lower: np.ndarray, upper: np.ndarray, jd: np.ndarray,
     Returns:
         ``(status, iterations, attempts used, attempts that stalled)``.
     """
+    lower, upper, jd, parent, fd, paths = arm
+    gf, gt, gd, gw, gtol, mask = goals
+    method, prm, max_iter, attempts, time_limit = run
+    nsw, pref, spheres = nullspace
     deadline = _now() + time_limit if time_limit > 0.0 else 0.0
     n = q0.shape[0]
     ng = gf.shape[0]
@@ -359,24 +370,23 @@ def solve(q0: np.ndarray, lower: np.ndarray, upper: np.ndarray, jd: np.ndarray,
 
 
 @nb.njit(**_OPTS_CLOCK)
-def solve_batch(q0: np.ndarray, lower: np.ndarray, upper: np.ndarray, jd: np.ndarray,
-                parent: np.ndarray, fd: np.ndarray, paths: np.ndarray, gf: np.ndarray,
-                gt: np.ndarray, gd: np.ndarray, gw: np.ndarray, gtol: np.ndarray,
-                mask: np.ndarray, method: int, prm: np.ndarray, max_iter: int, attempts: int,
-                time_limit: float, seeds: np.ndarray, nsw: np.ndarray, pref: np.ndarray,
-                spheres: np.ndarray, q_out: np.ndarray, info: np.ndarray) -> None:
-    """:func:`solve` for ``N`` goal sets ``gd`` ``(N, G, 18)`` from starts ``q0`` ``(N, n)``.
+def solve_batch(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
+                nullspace: NullSpaceGroup, seeds: np.ndarray, q_out: np.ndarray,
+                info: np.ndarray) -> None:
+    """:func:`solve` for ``N`` goal sets from starts ``q0`` ``(N, n)``.
 
-    ``time_limit`` [s] applies to each problem (<= 0: none); ``seeds`` ``(N,)`` seeds each
-    problem's generator; ``info`` ``(N, 4)`` receives (status, iterations, attempts, stalled).
+    ``goals`` is as for :func:`solve` except that its ``gd`` is ``(N, G, 18)``, one row of
+    targets per problem; ``time_limit`` [s] applies to each problem (<= 0: none); ``seeds``
+    ``(N,)`` seeds each problem's generator; ``info`` ``(N, 4)`` receives (status, iterations,
+    attempts, stalled).
     """
+    gf, gt, gd, gw, gtol, mask = goals
     trace = np.empty((0, 2))
     state = np.empty(1, dtype=np.uint64)
     for b in range(q0.shape[0]):
         state[0] = seeds[b]
-        st, it, att, stl = solve(q0[b], lower, upper, jd, parent, fd, paths, gf, gt, gd[b], gw,
-                                 gtol, mask, method, prm, max_iter, attempts, time_limit, state,
-                                 nsw, pref, spheres, q_out[b], trace)
+        st, it, att, stl = solve(q0[b], arm, (gf, gt, gd[b], gw, gtol, mask), run, nullspace,
+                                 state, q_out[b], trace)
         info[b, 0] = st
         info[b, 1] = it
         info[b, 2] = att

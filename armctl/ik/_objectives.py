@@ -1,4 +1,8 @@
-"""Compiled secondary objectives for the null space (seed section 9) and their gradients."""
+"""Compiled secondary objectives for the null space and their gradients.
+
+They are the secondary criteria of the lecture's redundancy step (L. Kavan, *Metody skeletální
+animace*, 2002): ``dz`` in ``dq = J^+ dx + (I - J^+ J) dz`` descends them.
+"""
 
 from __future__ import annotations
 

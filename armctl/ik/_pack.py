@@ -10,14 +10,12 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from armctl.errors import InputError
 from armctl.ik import _engine as E
-from armctl.ik.goals import DirectionGoal, Goal, OrientationGoal, PoseGoal, PositionGoal
+from armctl.ik.goals import Goal
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = ["GoalArrays", "ModelArrays", "goal_row", "model_arrays", "pack_goals", "seed_state"]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -27,14 +25,15 @@ class ModelArrays:
     Attributes:
         lower: Lower limits, C-contiguous [rad]/[m].
         upper: Upper limits.
-        reach: An upper bound of the distance from the base to any frame [m].
         continuous: Joints without position limits (wrapped into [-pi, pi] in answers).
+        kernel: The ``arm`` argument of :func:`armctl.ik._engine.solve`: the limits and the
+            model's compiled tree (``joints``, ``parent``, ``frames``, ``paths``).
     """
 
     lower: Array
     upper: Array
-    reach: float
     continuous: npt.NDArray[np.bool_]
+    kernel: E.ArmGroup
 
 
 _MODELS: weakref.WeakKeyDictionary[KinematicModel, ModelArrays] = weakref.WeakKeyDictionary()
@@ -44,16 +43,11 @@ def model_arrays(model: KinematicModel) -> ModelArrays:
     """The cached :class:`ModelArrays` of a model."""
     got = _MODELS.get(model)
     if got is None:
-        jd, fd = model._jd, model._fd
-        reach = float(np.linalg.norm(jd[:, [3, 7, 11]], axis=1).sum())
-        reach += float(np.linalg.norm(fd[:, [3, 7, 11]], axis=1).max(initial=0.0))
-        prismatic = jd[:, 15] > 0.5
-        if prismatic.any():
-            span = np.where(np.isfinite(model.upper - model.lower), model.upper - model.lower, 0)
-            reach += float(np.abs(span[prismatic]).sum())
-        got = ModelArrays(np.array(model.lower, dtype=float),
-                          np.array(model.upper, dtype=float), max(reach, 1e-3),
-                          ~(np.isfinite(model.lower) & np.isfinite(model.upper)))
+        lower = np.array(model.lower, dtype=float)
+        upper = np.array(model.upper, dtype=float)
+        tree = model.tree
+        got = ModelArrays(lower, upper, ~(np.isfinite(lower) & np.isfinite(upper)),
+                          (lower, upper, tree.joints, tree.parent, tree.frames, tree.paths))
         _MODELS[model] = got
     return got
 
@@ -69,40 +63,20 @@ class GoalArrays:
     gtol: Array
     mask: npt.NDArray[np.int64]
 
+    @property
+    def kernel(self) -> E.GoalGroup:
+        """The ``goals`` argument of :func:`armctl.ik._engine.solve`."""
+        return self.gf, self.gt, self.gd, self.gw, self.gtol, self.mask
+
 
 def goal_row(goal: Goal) -> Array:
-    """The 18 numbers of one goal's target (layout in :mod:`armctl.ik._engine`)."""
-    row = np.zeros(18)
-    row[17] = 1.0  # default tool axis z
-    if isinstance(goal, PositionGoal):
-        row[0:3] = goal.position
-    elif isinstance(goal, OrientationGoal):
-        row[3:12] = goal.rotation.ravel()
-    elif isinstance(goal, DirectionGoal):
-        row[0:3] = goal.position
-        row[12:15] = goal.direction
-        row[15:18] = goal.axis
-    elif isinstance(goal, PoseGoal):
-        row[0:3] = goal.pose[:3, 3]
-        row[3:12] = goal.pose[:3, :3].ravel()
-    else:
-        raise InputError(f"the numerical solvers do not handle goals of type {type(goal).__name__}")
-    return row
-
-
-_TYPES: dict[type, int] = {PositionGoal: E.POSITION, OrientationGoal: E.ORIENTATION,
-                           DirectionGoal: E.DIRECTION, PoseGoal: E.POSE}
+    """The 18 numbers of one goal's targets (layout in :mod:`armctl.ik._residual`)."""
+    return goal.packed()
 
 
 def goal_type(goal: Goal) -> int:
-    """The engine's code of a goal's type."""
-    code = _TYPES.get(type(goal))
-    if code is not None:
-        return code
-    for cls, c in _TYPES.items():  # subclasses
-        if isinstance(goal, cls):
-            return c
-    raise InputError(f"the numerical solvers do not handle goals of type {type(goal).__name__}")
+    """The kernels' code of a goal's kind."""
+    return int(goal.kind)
 
 
 _MASKS: weakref.WeakKeyDictionary[KinematicModel, dict[int, npt.NDArray[np.int64]]] = (
@@ -114,8 +88,7 @@ def _mask_row(model: KinematicModel, f: int) -> npt.NDArray[np.int64]:
     row = rows.get(f)
     if row is None:
         row = np.zeros(model.dof, dtype=np.int64)
-        path = model._paths[f]
-        row[path[path >= 0]] = 1
+        row[model.tree.chain(f)] = 1
         rows[f] = row
     return row
 

@@ -3,19 +3,26 @@
 Goals are packed into flat arrays by :mod:`armctl.ik._pack`:
 
 * ``gf`` ``(G,)``: frame index of each goal.
-* ``gt`` ``(G,)``: goal type (:data:`POSITION`, :data:`ORIENTATION`, :data:`DIRECTION`,
-  :data:`POSE`).
-* ``gd`` ``(G, 18)``: target position (0-2), target rotation row-major (3-11), target direction
-  (12-14), tool axis in the goal frame's coordinates (15-17).
+* ``gt`` ``(G,)``: goal kind (:class:`armctl.ik.goals.GoalKind`; :data:`POSITION`,
+  :data:`ORIENTATION`, :data:`DIRECTION`, :data:`POSE`, :data:`LOOK_AT` here).
+* ``gd`` ``(G, 18)``: the targets, as :meth:`armctl.ik.goals.Goal.packed` writes them: target
+  position or point (0-2), target rotation row-major (3-11), target direction (12-14), tool axis
+  in the goal frame's coordinates (15-17).
 * ``gw`` ``(G,)``: goal weights; ``gtol`` ``(G, 2)``: position [m] and rotation [rad] tolerance.
 * ``mask`` ``(G, n)``: 1 where joint ``j`` moves goal ``g``'s frame.
 
 The residual of a goal stacks its position error ``p_target - p`` (3 rows, Jacobian rows
 ``J_v``) and its orientation part: the rotation vector of ``R_target R^T`` (3 rows, ``J_w``) for
 orientation and pose goals, or ``d_target - a`` for a direction goal, where ``a`` is the current
-tool axis in the base frame, with the seed's columns ``w_i x a`` (zero for prismatic joints).
-Rows are scaled by ``sqrt(weight)``, orientation rows also by the method's rotation weight
-``rw`` [m/rad].
+tool axis in the base frame, with the columns ``w_i x a`` (zero for prismatic joints) of the
+lecture (L. Kavan, *Metody skeletální animace*, 2002).
+A look-at goal has no position rows; its 3 rows are ``u - a`` with ``u`` the unit vector from the
+frame's origin to the point (distance ``r``), with columns ``w_i x a + (I - u u^T) v_i / r``
+(``v_i`` the origin's velocity column of ``J_v``). Rows are scaled by ``sqrt(weight)``,
+orientation rows also by the method's rotation weight ``rw`` [m/rad].
+
+Each goal kind is one branch of :func:`goal_error`, :func:`kind_rows` and :func:`_residual`
+(docs/ik-goals.md, "Adding a goal type").
 """
 
 from __future__ import annotations
@@ -26,12 +33,41 @@ from typing import Any
 import numba as nb
 import numpy as np
 
+from armctl.ik.goals import GoalKind
 from armctl.kinematics._kernels import fk_into, fk_jacobian_into
 
 #: numba options shared by the IK kernels
 NJIT: dict[str, Any] = {"cache": True, "nogil": True, "error_model": "numpy"}
 
-POSITION, ORIENTATION, DIRECTION, POSE = 0, 1, 2, 3
+#: The goal kinds as the kernels see them (compile-time constants)
+POSITION = int(GoalKind.POSITION)
+ORIENTATION = int(GoalKind.ORIENTATION)
+DIRECTION = int(GoalKind.DIRECTION)
+POSE = int(GoalKind.POSE)
+LOOK_AT = int(GoalKind.LOOK_AT)
+
+
+@nb.njit(inline="always", **NJIT)
+def has_position(t: int) -> bool:
+    """Whether goals of kind ``t`` constrain the frame's position (3 position rows)."""
+    return t == POSITION or t == DIRECTION or t == POSE
+
+
+@nb.njit(inline="always", **NJIT)
+def _tool_axis(gd: np.ndarray, pose: np.ndarray) -> tuple[float, float, float]:
+    """The goal's tool axis (``gd[15:18]``, frame coordinates) in the base frame."""
+    return (pose[0, 0] * gd[15] + pose[0, 1] * gd[16] + pose[0, 2] * gd[17],
+            pose[1, 0] * gd[15] + pose[1, 1] * gd[16] + pose[1, 2] * gd[17],
+            pose[2, 0] * gd[15] + pose[2, 1] * gd[16] + pose[2, 2] * gd[17])
+
+
+@nb.njit(inline="always", **NJIT)
+def _angle(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> float:
+    """Angle between two vectors [rad] (any lengths), accurate at 0 and pi."""
+    c0 = a1 * b2 - a2 * b1
+    c1 = a2 * b0 - a0 * b2
+    c2 = a0 * b1 - a1 * b0
+    return math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), a0 * b0 + a1 * b1 + a2 * b2)
 
 
 @nb.njit(inline="always", **NJIT)
@@ -83,7 +119,7 @@ def goal_error(t: int, gd: np.ndarray, pose: np.ndarray) -> tuple[float, float]:
     """Position error [m] and rotation/direction error [rad] of one goal, as ``Goal.errors``."""
     dp = 0.0
     dr = 0.0
-    if t != ORIENTATION:
+    if has_position(t):
         x = gd[0] - pose[0, 3]
         y = gd[1] - pose[1, 3]
         z = gd[2] - pose[2, 3]
@@ -97,15 +133,31 @@ def goal_error(t: int, gd: np.ndarray, pose: np.ndarray) -> tuple[float, float]:
         c = (d[0, 0] + d[1, 1] + d[2, 2] - 1.0) / 2.0
         dr = math.atan2(math.sqrt(v0 * v0 + v1 * v1 + v2 * v2) / 2.0, c)
     elif t == DIRECTION:
-        a0 = pose[0, 0] * gd[15] + pose[0, 1] * gd[16] + pose[0, 2] * gd[17]
-        a1 = pose[1, 0] * gd[15] + pose[1, 1] * gd[16] + pose[1, 2] * gd[17]
-        a2 = pose[2, 0] * gd[15] + pose[2, 1] * gd[16] + pose[2, 2] * gd[17]
-        c0 = a1 * gd[14] - a2 * gd[13]
-        c1 = a2 * gd[12] - a0 * gd[14]
-        c2 = a0 * gd[13] - a1 * gd[12]
-        dr = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2),
-                        a0 * gd[12] + a1 * gd[13] + a2 * gd[14])
+        a0, a1, a2 = _tool_axis(gd, pose)
+        dr = _angle(a0, a1, a2, gd[12], gd[13], gd[14])
+    elif t == LOOK_AT:
+        a0, a1, a2 = _tool_axis(gd, pose)
+        x = gd[0] - pose[0, 3]
+        y = gd[1] - pose[1, 3]
+        z = gd[2] - pose[2, 3]
+        if x * x + y * y + z * z < 1e-24:  # the frame at the point: no direction
+            dr = math.pi
+        else:
+            dr = _angle(a0, a1, a2, x, y, z)
     return dp, dr
+
+
+@nb.njit(**NJIT)
+def goal_errors_many(t: int, gd: np.ndarray, pose: np.ndarray, out: np.ndarray) -> None:
+    """:func:`goal_error` of one goal kind for ``N`` targets and frame poses.
+
+    ``gd`` ``(N, 18)`` holds the targets, ``pose`` ``(N, 4, 4)`` the frame poses; ``out``
+    ``(N, 2)`` receives the position [m] and rotation [rad] errors.
+    """
+    for i in range(gd.shape[0]):
+        dp, dr = goal_error(t, gd[i], pose[i])
+        out[i, 0] = dp
+        out[i, 1] = dr
 
 
 @nb.njit(**NJIT)
@@ -129,12 +181,18 @@ def _max_errors(gt: np.ndarray, gd: np.ndarray, pose: np.ndarray) -> tuple[float
     return mp, mr
 
 
+@nb.njit(inline="always", **NJIT)
+def kind_rows(t: int) -> int:
+    """Rows of the residual of one goal of kind ``t``."""
+    return 6 if (t == DIRECTION or t == POSE) else 3
+
+
 @nb.njit(**NJIT)
 def n_rows(gt: np.ndarray) -> int:
     """Rows of the stacked residual."""
     m = 0
     for g in range(gt.shape[0]):
-        m += 3 if (gt[g] == POSITION or gt[g] == ORIENTATION) else 6
+        m += kind_rows(gt[g])
     return m
 
 
@@ -156,7 +214,7 @@ def _residual(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, 
         s = math.sqrt(gw[g])
         t = gt[g]
         p = pose[g]
-        if t != ORIENTATION:
+        if has_position(t):
             for i in range(3):
                 e[r + i] = s * (gd[g, i] - p[i, 3])
                 if with_jac:
@@ -172,19 +230,35 @@ def _residual(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, 
                         jac[r + i, c] = sr * jg[3 + i, c]
             r += 3
         elif t == DIRECTION:
-            ax = gd[g, 15:18]
-            a0 = p[0, 0] * ax[0] + p[0, 1] * ax[1] + p[0, 2] * ax[2]
-            a1 = p[1, 0] * ax[0] + p[1, 1] * ax[1] + p[1, 2] * ax[2]
-            a2 = p[2, 0] * ax[0] + p[2, 1] * ax[1] + p[2, 2] * ax[2]
+            a0, a1, a2 = _tool_axis(gd[g], p)
             e[r] = sr * (gd[g, 12] - a0)
             e[r + 1] = sr * (gd[g, 13] - a1)
             e[r + 2] = sr * (gd[g, 14] - a2)
-            if with_jac:  # the seed's column w x v for the direction part
+            if with_jac:  # the lecture's column w x v for the direction part
                 for c in range(n):
                     wx, wy, wz = jg[3, c], jg[4, c], jg[5, c]
                     jac[r, c] = sr * (wy * a2 - wz * a1)
                     jac[r + 1, c] = sr * (wz * a0 - wx * a2)
                     jac[r + 2, c] = sr * (wx * a1 - wy * a0)
+            r += 3
+        elif t == LOOK_AT:
+            a0, a1, a2 = _tool_axis(gd[g], p)
+            x = gd[g, 0] - p[0, 3]
+            y = gd[g, 1] - p[1, 3]
+            z = gd[g, 2] - p[2, 3]
+            dist = max(math.sqrt(x * x + y * y + z * z), 1e-12)
+            u0, u1, u2 = x / dist, y / dist, z / dist
+            e[r] = sr * (u0 - a0)
+            e[r + 1] = sr * (u1 - a1)
+            e[r + 2] = sr * (u2 - a2)
+            if with_jac:  # d(a - u)/dq: w x a for the axis, (I - u u^T) v / r for the line
+                for c in range(n):
+                    wx, wy, wz = jg[3, c], jg[4, c], jg[5, c]
+                    vx, vy, vz = jg[0, c], jg[1, c], jg[2, c]
+                    uv = u0 * vx + u1 * vy + u2 * vz
+                    jac[r, c] = sr * (wy * a2 - wz * a1 + (vx - u0 * uv) / dist)
+                    jac[r + 1, c] = sr * (wz * a0 - wx * a2 + (vy - u1 * uv) / dist)
+                    jac[r + 2, c] = sr * (wx * a1 - wy * a0 + (vz - u2 * uv) / dist)
             r += 3
     en = 0.0
     for i in range(r):

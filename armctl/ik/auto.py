@@ -4,9 +4,10 @@
    measured best on every arm and goal type (docs/ik-methods.md), and the fastest.
 2. When that fails and the goal is one whose frame is moved by exactly as many joints as the
    goal constrains (a 6-joint arm and a pose, a 5-joint arm and a position + direction goal,
-   ...), the closed-form solver registered as ``"analytic"`` is tried, if it has a
-   decomposition for the arm (remembered per arm, frame and goal type): it enumerates every
-   solution, so it settles goals near the limits or singularities that the restarts missed.
+   ...), a registered closed-form solver (capabilities: all solutions, the goal's kind;
+   ``"analytic"``) is tried, if it has a decomposition for the arm (remembered per arm, frame
+   and goal type): it enumerates every solution, so it settles goals near the limits or
+   singularities that the restarts missed.
 
 The better of the two answers is returned; ``success`` is decided by
 :func:`armctl.ik.result.finish` as always.
@@ -20,18 +21,15 @@ import weakref
 from collections.abc import Callable, Sequence
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
-
 from armctl.ik.goals import Goal
 from armctl.ik.numerical import check_no_constraints, run_method
 from armctl.ik.options import IKOptions
 from armctl.ik.result import IKResult, finish
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = ["auto"]
 
-Array = npt.NDArray[np.float64]
 
 #: per model: (frame, goal type) -> whether the analytic solver has a closed form for it
 _CLOSED_FORM: weakref.WeakKeyDictionary[KinematicModel, dict[tuple[str | None, type], bool]] = (
@@ -40,17 +38,23 @@ _CLOSED_FORM: weakref.WeakKeyDictionary[KinematicModel, dict[tuple[str | None, t
 
 def _analytic(model: KinematicModel, goals: tuple[Goal, ...],
               options: IKOptions) -> Callable[..., IKResult] | None:
-    """The analytic solver when it should be tried for these goals, else None."""
-    from armctl.ik.registry import _SOLVERS, get_solver
+    """A registered closed-form solver when one should be tried for these goals, else None.
 
-    if len(goals) != 1 or options.nullspace is not None or "analytic" not in _SOLVERS:
+    The registry's capabilities decide: a solver that lists every solution and solves the
+    goal's kind, for one goal whose frame is moved by exactly as many joints as it constrains.
+    """
+    from armctl.ik.registry import get_solver, solver_infos
+
+    if len(goals) != 1 or options.nullspace is not None:
         return None
     goal = goals[0]
-    if len(model.chain(goal.frame)) != goal.dof:
+    closed = [info for info in solver_infos() if info.capabilities.all_solutions
+              and info.capabilities.solves(goal.kind)]
+    if not closed or len(model.chain(goal.frame)) != goal.dof:
         return None
     if _CLOSED_FORM.setdefault(model, {}).get((goal.frame, type(goal))) is False:
         return None
-    return get_solver("analytic")
+    return get_solver(closed[0].name)
 
 
 def _no_closed_form() -> tuple[type[BaseException], ...]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -19,16 +19,19 @@ import numpy.typing as npt
 from armctl.errors import InputError
 from armctl.ik import _engine as E
 from armctl.ik._pack import goal_row, model_arrays, pack_goals, seed_state, wrap_continuous
+from armctl.ik._residual import goal_errors_many
 from armctl.ik.goals import Goal, GoalLike, PoseGoal, Tolerance, as_goals
 from armctl.ik.nullspace import ns_arrays
 from armctl.ik.numerical import _METHODS, method_params
 from armctl.ik.options import IKOptions
+from armctl.ik.registry import DEFAULT, check_request, solver_info, solver_infos
 from armctl.ik.result import IKStatus
+from armctl.ik.singular import goal_rank, stuck_at_singularity
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = ["IKBatchResult", "batch_errors", "solve_batch"]
 
-Array = npt.NDArray[np.float64]
 
 _STATUS = {E.CONVERGED: IKStatus.CONVERGED, E.MAX_ITERATIONS: IKStatus.MAX_ITERATIONS,
            E.TIME_LIMIT: IKStatus.TIME_LIMIT}
@@ -41,7 +44,8 @@ class IKBatchResult:
     Attributes:
         q: Joint vectors ``(N, dof)``: solutions, or the closest found.
         success: ``(N,)``: every goal met within tolerance (by FK) and ``q`` inside the limits.
-        status: Per problem: converged, max iterations, unreachable or time limit.
+        status: Per problem, as :func:`armctl.ik.result.finish` decides it: converged, max
+            iterations, unreachable, time limit, singular or failed (the start returned).
         iterations: ``(N,)`` iterations, summed over restarts.
         restarts: ``(N,)`` restarts used.
         position_error: ``(N,)`` largest position error over the goals [m].
@@ -94,23 +98,11 @@ def batch_errors(model: KinematicModel, goals: Sequence[Goal], gd: Array,
     dp_max = np.zeros(n)
     dr_max = np.zeros(n)
     met = np.ones(n, dtype=bool)
+    errs = np.empty((n, 2))
     for g, goal in enumerate(goals):
-        poses = model.fk_batch(q, goal.frame)
-        dp = np.zeros(n)
-        dr = np.zeros(n)
-        if goal.has_position:
-            dp = np.linalg.norm(gd[:, g, 0:3] - poses[:, :3, 3], axis=1)
-        rt = gd[:, g, 3:12].reshape(n, 3, 3)
-        if goal.has_rotation and goal.dof != 5:
-            d = rt @ np.transpose(poses[:, :3, :3], (0, 2, 1))
-            v = np.stack([d[:, 2, 1] - d[:, 1, 2], d[:, 0, 2] - d[:, 2, 0],
-                          d[:, 1, 0] - d[:, 0, 1]], axis=1)
-            c = (d[:, 0, 0] + d[:, 1, 1] + d[:, 2, 2] - 1.0) / 2.0
-            dr = np.arctan2(np.linalg.norm(v, axis=1) / 2.0, c)
-        elif goal.dof == 5:
-            a = np.einsum("nij,nj->ni", poses[:, :3, :3], gd[:, g, 15:18])
-            dirs = gd[:, g, 12:15]
-            dr = np.arctan2(np.linalg.norm(np.cross(a, dirs), axis=1), np.sum(a * dirs, axis=1))
+        poses = np.ascontiguousarray(model.fk_batch(q, goal.frame))
+        goal_errors_many(int(goal.kind), np.ascontiguousarray(gd[:, g]), poses, errs)
+        dp, dr = errs[:, 0].copy(), errs[:, 1].copy()
         dp_max = np.maximum(dp_max, dp)
         dr_max = np.maximum(dr_max, dr)
         met &= (dp <= goal.tolerance.position) & (dr <= goal.tolerance.rotation)
@@ -147,19 +139,19 @@ def solve_batch(
     """
     started = time.perf_counter()
     options = options or IKOptions()
-    method_name = "dls" if solver == "auto" else solver
-    if method_name not in _METHODS:
-        raise InputError(f"solve_batch supports the solvers {', '.join(['auto', *_METHODS])}; "
+    if not solver_info(solver).capabilities.batch:
+        raise InputError(f"solve_batch supports the solvers "
+                         f"{', '.join(i.name for i in solver_infos() if i.capabilities.batch)}; "
                          f"got {solver!r}")
+    method_name = "dls" if solver == DEFAULT else solver  # the default's first method
     sets = _goal_sets(goals, tolerance)
     if not sets:
         raise InputError("solve_batch needs at least one goal set")
     first = sets[0]
-    key = [(type(g), g.frame, g.weight, g.tolerance, getattr(g, "axis", None) is None)
-           for g in first]
+    check_request(solver, first)
+    key = [(type(g), g.frame, g.weight, g.tolerance) for g in first]
     for i, gs in enumerate(sets):
-        if [(type(g), g.frame, g.weight, g.tolerance, getattr(g, "axis", None) is None)
-                for g in gs] != key:
+        if [(type(g), g.frame, g.weight, g.tolerance) for g in gs] != key:
             raise InputError(f"batch goal set {i} differs in structure from set 0 (goal types, "
                              "frames, weights and tolerances must match)")
     ga = pack_goals(model, first)
@@ -176,31 +168,43 @@ def solve_batch(
     starts = np.ascontiguousarray(starts)
     ma = model_arrays(model)
     method = _METHODS[method_name]
-    nsw, pref, spheres = ns_arrays(model, options.nullspace)
     base = int(seed_state(options.seed)[0])
     seeds = np.array([(base + 0xD1B54A32D192ED03 * (i + 1)) & (2**64 - 1) for i in range(n)],
                      dtype=np.uint64)
-    q_out = np.empty((n, model.dof))
+    q_out = np.full((n, model.dof), np.nan)  # a row stays NaN if no attempt had a finite error
     info = np.zeros((n, 4), dtype=np.int64)
-    E.solve_batch(starts, ma.lower, ma.upper, model._jd, model._parent, model._fd, model._paths,
-                  ga.gf, ga.gt, gd, ga.gw, ga.gtol, ga.mask, method,
-                  method_params(model, method, options), options.max_iterations,
-                  options.restarts + 1, options.time_limit, seeds, nsw, pref, spheres, q_out,
-                  info)
+    run = (method, method_params(model, method, options), options.max_iterations,
+           options.restarts + 1, float(options.time_limit))
+    E.solve_batch(starts, ma.kernel, replace(ga, gd=gd).kernel, run,
+                  ns_arrays(model, options.nullspace), seeds, q_out, info)
     q = np.array([wrap_continuous(row, ma.continuous) for row in q_out]) if ma.continuous.any() \
         else q_out
+    failed = ~np.all(np.isfinite(q), axis=1)
+    if failed.any():  # as finish does: the start instead of non-finite joint values
+        q = np.where(failed[:, None], starts, q)
     dp, dr, met = batch_errors(model, first, gd, q)
+    failed |= ~(np.isfinite(dp) & np.isfinite(dr))
     inside = np.all((q >= model.lower - 1e-9) & (q <= model.upper + 1e-9), axis=1)
     success = met & inside
     status = []
+    rank: int | None = None  # the goals' usual rank (goal_rank), shared by the batch
     for i in range(n):
         if success[i]:
             status.append(IKStatus.CONVERGED)
-        elif info[i, 0] == E.MAX_ITERATIONS and info[i, 3] >= info[i, 2]:
-            status.append(IKStatus.UNREACHABLE)
+            continue
+        if failed[i]:
+            status.append(IKStatus.FAILED)
+            continue
+        if info[i, 0] == E.MAX_ITERATIONS and info[i, 3] >= info[i, 2]:
+            st = IKStatus.UNREACHABLE
         else:
             st = _STATUS[int(info[i, 0])]
-            status.append(IKStatus.MAX_ITERATIONS if st is IKStatus.CONVERGED else st)
+            st = IKStatus.MAX_ITERATIONS if st is IKStatus.CONVERGED else st
+        if st is not IKStatus.TIME_LIMIT and not met[i]:
+            rank = goal_rank(model, first) if rank is None else rank
+            if stuck_at_singularity(model, sets[i], q[i], rank) is not None:
+                st = IKStatus.SINGULAR
+        status.append(st)
     q.setflags(write=False)
     return IKBatchResult(q, success, tuple(status), info[:, 1].copy(),
                          np.maximum(info[:, 2] - 1, 0), dp, dr, inside, method_name,

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
-from armctl.errors import NoSolutionError
+from armctl.errors import InputError, NoSolutionError
 from armctl.ik.result import IKResult
 
-__all__ = ["IKFailedError"]
+__all__ = ["IKFailedError", "UnsupportedGoalError"]
 
 
 class IKFailedError(NoSolutionError):
@@ -16,10 +17,29 @@ class IKFailedError(NoSolutionError):
     Args:
         result: The solver's result (``success`` False).
         text: The message: what failed, the closest pose and the remaining error.
-        details: Machine-readable data for ``--json`` output (closest q, pose, errors, status).
+        details: The closest configuration, its pose, errors and the solver's status, as data
+            (the keys are the caller's; :func:`armctl.robot.unreachable.unreachable` lists
+            those of a goal the arm cannot reach).
     """
 
-    def __init__(self, result: IKResult, text: str, details: dict[str, Any] | None = None):
+    def __init__(self, result: IKResult, text: str, details: Mapping[str, Any] | None = None):
         self.result = result
-        self.details = details or {}
-        super().__init__(text)
+        super().__init__(text, details)
+
+
+class UnsupportedGoalError(InputError):
+    """A solver was asked for what its capabilities exclude.
+
+    A goal kind, several goals or constraints it does not take; the message names the solvers
+    that can.
+
+    Args:
+        text: The message.
+        solver: The solver's name.
+
+    ``details``: ``solver``.
+    """
+
+    def __init__(self, text: str, solver: str):
+        self.solver = solver
+        super().__init__(text, {"solver": solver})

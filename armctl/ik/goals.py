@@ -1,32 +1,60 @@
-"""What an end effector must reach: the seed's four IK goal types.
+"""What an end effector must reach: the goal types, each describing itself.
 
 * :class:`PositionGoal`: position only (3 DOF).
 * :class:`OrientationGoal`: orientation only (3 DOF).
 * :class:`DirectionGoal`: position plus one unit direction of a tool axis (5 DOF), the natural
   goal for 5-joint arms such as the SO-101.
 * :class:`PoseGoal`: full position and orientation (6 DOF).
+* :class:`LookAtGoal`: a tool axis points at a point in space (2 DOF), e.g. a wrist camera.
 
 Each goal names its frame (``None``: the arm's tool frame), a weight and a tolerance. Whether a
 goal is met is decided by :meth:`Goal.errors` on the pose computed by forward kinematics, the same
 way for every solver.
+
+A goal type describes itself, so the code around it (packing for the compiled solvers, the NLP,
+goals files, the command line, straight-line moves) needs no list of types: its :class:`GoalKind`
+(the code the compiled residual and Jacobian kernels of :mod:`armctl.ik._residual` dispatch on),
+its packed targets (:meth:`Goal.packed`), its CasADi residual (:meth:`Goal.nlp_residual`), its
+goals-file entry (:meth:`Goal.from_file`, :meth:`Goal.file_fields`), its command-line flags
+(:attr:`Goal.cli_arguments`, :meth:`Goal.from_cli`) and its straight-line interpolation
+(:meth:`Goal.interpolate`). A new goal type is a class here plus its kernel branch in
+:mod:`armctl.ik._residual` (docs/ik-goals.md, "Adding a goal type").
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from enum import IntEnum
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
 from armctl.errors import InputError
-from armctl.spatial import orthonormalize
+from armctl.spatial import (
+    make_transform,
+    matrix_to_quat,
+    matrix_to_rpy,
+    orthonormalize,
+    quat_to_matrix,
+    rpy_to_matrix,
+    slerp,
+)
+from armctl.typing import Array
+
+if TYPE_CHECKING:
+    from armctl.config.source import Section
 
 __all__ = [
+    "CliArgument",
+    "CliGoalInput",
     "DirectionGoal",
     "Goal",
+    "GoalKind",
     "GoalLike",
+    "LookAtGoal",
     "OrientationGoal",
     "PoseGoal",
     "PositionGoal",
@@ -34,9 +62,9 @@ __all__ = [
     "as_goals",
     "as_unit3",
     "as_vec3",
+    "goal_class",
+    "goal_classes",
 ]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -101,9 +129,160 @@ def _rotation_angle(r_target: Array, r_current: Array) -> float:
     return float(math.atan2(np.linalg.norm(s) / 2.0, c))
 
 
+class GoalKind(IntEnum):
+    """The goal types, one number each.
+
+    The number is the code the compiled kernels dispatch on (:mod:`armctl.ik._residual`, CCD,
+    the analytic polish); :attr:`label` is how messages name the kind. :func:`goal_class` gives
+    the class of a kind.
+    """
+
+    POSITION = 0
+    ORIENTATION = 1
+    DIRECTION = 2
+    POSE = 3
+    LOOK_AT = 4
+
+    @property
+    def label(self) -> str:
+        """How messages name goals of this kind (``"position + direction"``, ``"look-at"``)."""
+        return goal_class(self).label
+
+
+@dataclass(frozen=True)
+class CliArgument:
+    """A command-line flag that a goal type adds to ``armctl ik`` and ``move-to-pose``.
+
+    Attributes:
+        flag: The flag, e.g. ``"--look-at"``; its value reaches :meth:`Goal.from_cli` under
+            this name (``None`` when the flag is not given).
+        metavar: One name per value (``("X", "Y", "Z")`` takes three values; one name: a single
+            value).
+        help: The help text.
+        numbers: Whether the values are finite numbers (else strings, checked by the goal).
+        choices: The allowed values of a one-value string flag (empty: any).
+        exclusive: Whether the flag excludes ``--rpy`` and ``--quat`` (and the other exclusive
+            flags).
+        usage: How the "give a goal" message shows the goal type (empty: not shown).
+    """
+
+    flag: str
+    metavar: tuple[str, ...]
+    help: str
+    numbers: bool = True
+    choices: tuple[str, ...] = ()
+    exclusive: bool = False
+    usage: str = ""
+
+    @property
+    def dest(self) -> str:
+        """The flag as a Python name (``"--look-at"`` -> ``"look_at"``)."""
+        return self.flag.lstrip("-").replace("-", "_")
+
+
+@dataclass(frozen=True)
+class CliGoalInput:
+    """What the command line gave for a goal, as :meth:`Goal.from_cli` receives it.
+
+    Attributes:
+        xyz: ``--xyz`` position in the base frame [m], or ``None``.
+        rotation: The orientation of ``--rpy`` or ``--quat`` ``(3, 3)``, or ``None``.
+        frame: ``--frame`` (``None``: the tool).
+        tolerance: From ``--tol-pos`` and ``--tol-rot``.
+        values: The goal types' own flags (:attr:`CliArgument.flag`) and their values; ``None``
+            for a flag not given.
+    """
+
+    xyz: Array | None
+    rotation: Array | None
+    frame: str | None
+    tolerance: Tolerance
+    values: Mapping[str, Any] = field(default_factory=dict)
+
+    def value(self, flag: str) -> Any:
+        """The value of a goal type's own flag, ``None`` when not given."""
+        return self.values.get(flag)
+
+    @property
+    def own_flags(self) -> bool:
+        """Whether any goal type's own flag was given."""
+        return any(v is not None for v in self.values.values())
+
+
+#: kind -> goal class, filled as the classes are defined (:meth:`Goal.__init_subclass__`)
+_KINDS: dict[GoalKind, type[Goal]] = {}
+
+
+def goal_class(kind: GoalKind | int) -> type[Goal]:
+    """The goal class of a kind.
+
+    Raises:
+        InputError: For a number that is no registered kind.
+    """
+    try:
+        return _KINDS[GoalKind(kind)]
+    except (ValueError, KeyError):
+        raise InputError(f"{kind!r} is not a goal kind; known: "
+                         f"{', '.join(k.name for k in _KINDS)}") from None
+
+
+def goal_classes() -> tuple[type[Goal], ...]:
+    """Every goal class, in the order of their kinds."""
+    return tuple(_KINDS[k] for k in sorted(_KINDS))
+
+
+_AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
+def _packed(position: Array | None = None, rotation: Array | None = None,
+            direction: Array | None = None, axis: Array | None = None) -> Array:
+    """The 18 numbers of a goal's targets (layout: :mod:`armctl.ik._residual`)."""
+    row = np.zeros(18)
+    row[17] = 1.0  # default tool axis z
+    if position is not None:
+        row[0:3] = position
+    if rotation is not None:
+        row[3:12] = rotation.ravel()
+    if direction is not None:
+        row[12:15] = direction
+    if axis is not None:
+        row[15:18] = axis
+    return row
+
+
+def _turn(a: Array, b: Array, s: float) -> Array:
+    """Unit vector a fraction ``s`` of the way from ``a`` to ``b`` on the great circle."""
+    c = float(np.clip(a @ b, -1.0, 1.0))
+    angle = math.acos(c)
+    if angle < 1e-9:
+        return b.copy()
+    axis = np.cross(a, b)
+    if np.linalg.norm(axis) < 1e-9:  # opposite: any perpendicular axis
+        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    axis = axis / np.linalg.norm(axis)
+    th = s * angle
+    return a * math.cos(th) + np.cross(axis, a) * math.sin(th) + axis * (axis @ a) * (
+        1 - math.cos(th))
+
+
+def _span_angle(a: Array, b: Array) -> float:
+    """Angle between two unit vectors [rad] (for sampling; acos is enough)."""
+    return math.acos(float(np.clip(a @ b, -1.0, 1.0)))
+
+
+def _vec(v: npt.ArrayLike) -> list[float]:
+    """Plain floats for a file."""
+    return [float(x) for x in np.asarray(v, dtype=float).reshape(-1)]
+
+
 @dataclass(frozen=True)
 class Goal:
     """Base of the goal types.
+
+    A goal type is a frozen dataclass deriving from this class that sets the class attributes
+    :attr:`kind`, :attr:`label`, :attr:`file_type` and :attr:`file_keys` (and
+    :attr:`cli_arguments` if it has command-line flags) and implements the methods that raise
+    ``NotImplementedError`` here; defining the class registers its kind (:func:`goal_class`).
 
     Attributes:
         frame: The frame that must reach the goal; the arm's tool frame when ``None``.
@@ -115,17 +294,41 @@ class Goal:
     weight: float = field(default=1.0, kw_only=True)
     tolerance: Tolerance = field(default=Tolerance(), kw_only=True)
 
-    #: Number of constrained task-space dimensions (3, 5 or 6).
+    #: Number of constrained task-space dimensions (2 to 6).
     dof: int = field(default=0, init=False, repr=False)
     #: Whether the goal constrains the position.
     has_position: bool = field(default=False, init=False, repr=False)
     #: Whether the goal constrains (part of) the orientation.
     has_rotation: bool = field(default=False, init=False, repr=False)
 
+    #: The kind: the code of its residual and Jacobian in the compiled kernels.
+    kind: ClassVar[GoalKind]
+    #: How messages name the kind.
+    label: ClassVar[str]
+    #: Its ``type`` in a goals file.
+    file_type: ClassVar[str]
+    #: The keys of its goals-file entry besides type, frame, weight and tolerance:
+    #: ``(required, optional)``.
+    file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = ((), ())
+    #: Command-line flags of its own (``--xyz``, ``--rpy`` and ``--quat`` are shared).
+    cli_arguments: ClassVar[tuple[CliArgument, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        kind = cls.__dict__.get("kind")
+        if kind is None:
+            return  # a subclass of a goal type keeps its parent's kind
+        known = _KINDS.get(kind)
+        if known is not None and known.__qualname__ != cls.__qualname__:
+            raise TypeError(f"goal kind {kind.name} belongs to {known.__qualname__} already; "
+                            f"give {cls.__qualname__} a kind of its own")
+        _KINDS[kind] = cls
+
     def __post_init__(self) -> None:
         if not self.weight > 0:
             raise InputError(f"a goal's weight must be positive, got {self.weight}")
 
+    # ---- what is reached ---------------------------------------------------------------------
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:
         """Position error [m] and rotation error [rad] of a frame pose against this goal.
 
@@ -142,12 +345,102 @@ class Goal:
         dp, dr = self.errors(pose)
         return dp <= self.tolerance.position and dr <= self.tolerance.rotation
 
+    @property
+    def target_position(self) -> Array | None:
+        """The position the frame must reach [m], or ``None`` when the goal leaves it free."""
+        return None
+
+    # ---- the compiled solvers ----------------------------------------------------------------
+    def packed(self) -> Array:
+        """The goal's 18 target numbers for the compiled kernels.
+
+        The layout (position, rotation, direction, tool axis) is described in
+        :mod:`armctl.ik._residual`; the kernel branch of :attr:`kind` reads them.
+        """
+        raise NotImplementedError
+
+    # ---- the NLP -----------------------------------------------------------------------------
+    def nlp_params(self) -> Array:
+        """The numbers :meth:`nlp_residual` reads from its parameters (weight excluded)."""
+        raise NotImplementedError
+
+    def nlp_residual(self, ca: Any, rot: Any, pos: Any, params: Any, *, position_scale: float,
+                     rotation_scale: float) -> Any:
+        """The CasADi residual vector whose squared norm the NLP drives to zero.
+
+        Only the structure of ``self`` may be used (a built problem serves every goal of the
+        same type and frame); the numbers come from ``params``.
+
+        Args:
+            ca: The ``casadi`` module.
+            rot: Symbolic ``(3, 3)`` rotation of the goal's frame.
+            pos: Symbolic ``(3, 1)`` position of the goal's frame [m].
+            params: Symbolic parameters, laid out as :meth:`nlp_params` returns them.
+            position_scale: Factor of position residuals [1/m] (1 / the arm's reach).
+            rotation_scale: Factor of orientation residuals (orientation scale / reach).
+        """
+        raise NotImplementedError
+
+    # ---- goals files -------------------------------------------------------------------------
+    @classmethod
+    def from_file(cls, sec: Section, *, frame: str | None, weight: float,
+                  tolerance: Tolerance) -> Goal:
+        """The goal of a goals-file entry (its keys already checked against :attr:`file_keys`).
+
+        Args:
+            sec: The entry (errors raised through it name the file, key and line).
+            frame: Its ``frame``.
+            weight: Its ``weight``.
+            tolerance: Its ``tolerance``.
+        """
+        raise NotImplementedError
+
+    def file_fields(self) -> dict[str, Any]:
+        """The goal's own keys of its goals-file entry (plain numbers; angles in [rad])."""
+        raise NotImplementedError
+
+    # ---- the command line --------------------------------------------------------------------
+    @classmethod
+    def from_cli(cls, given: CliGoalInput) -> Goal | None:
+        """The goal the command line describes, or ``None`` when it describes another type.
+
+        Raises:
+            InputError: When this type's flags are given but incomplete or contradictory.
+        """
+        return None
+
+    # ---- straight-line moves -----------------------------------------------------------------
+    def line_span(self, start: Array) -> tuple[float, float] | None:
+        """How far a straight line from ``start`` to the goal goes.
+
+        Args:
+            start: ``(4, 4)`` pose of the goal's frame at the start.
+
+        Returns:
+            ``(distance [m], rotation [rad])`` of the line, or ``None`` when the goal type has
+            no straight line.
+        """
+        return None
+
+    def interpolate(self, start: Array, s: float) -> Goal:
+        """The goal at fraction ``s`` in [0, 1] of the straight line from ``start`` to it.
+
+        Raises:
+            InputError: For a goal type without a straight line (:meth:`line_span` ``None``).
+        """
+        raise InputError(f"a straight line is not defined for {self.label} goals")
+
 
 @dataclass(frozen=True)
 class PositionGoal(Goal):
     """Reach a position (3 DOF). ``position``: target in the base frame [m]."""
 
     position: Array
+
+    kind: ClassVar[GoalKind] = GoalKind.POSITION
+    label: ClassVar[str] = "position"
+    file_type: ClassVar[str] = "position"
+    file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (("position",), ())
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -159,12 +452,53 @@ class PositionGoal(Goal):
         p = np.asarray(pose)[:3, 3]
         return float(np.linalg.norm(self.position - p)), 0.0
 
+    @property
+    def target_position(self) -> Array:  # noqa: D102
+        return self.position
+
+    def packed(self) -> Array:  # noqa: D102
+        return _packed(position=self.position)
+
+    def nlp_params(self) -> Array:  # noqa: D102
+        return np.array(self.position, dtype=float)
+
+    def nlp_residual(self, ca: Any, rot: Any, pos: Any, params: Any, *,  # noqa: D102
+                     position_scale: float, rotation_scale: float) -> Any:
+        return (pos - params[0:3]) * position_scale
+
+    @classmethod
+    def from_file(cls, sec: Section, *, frame: str | None, weight: float,  # noqa: D102
+                  tolerance: Tolerance) -> Goal:
+        return cls(np.array(sec.vector("position", 3)), frame=frame, weight=weight,
+                   tolerance=tolerance)
+
+    def file_fields(self) -> dict[str, Any]:  # noqa: D102
+        return {"position": _vec(self.position)}
+
+    @classmethod
+    def from_cli(cls, given: CliGoalInput) -> Goal | None:  # noqa: D102
+        if given.xyz is None or given.rotation is not None or given.own_flags:
+            return None
+        return cls(given.xyz, frame=given.frame, tolerance=given.tolerance)
+
+    def line_span(self, start: Array) -> tuple[float, float]:  # noqa: D102
+        return float(np.linalg.norm(self.position - start[:3, 3])), 0.0
+
+    def interpolate(self, start: Array, s: float) -> Goal:  # noqa: D102
+        p0 = start[:3, 3]
+        return replace(self, position=p0 + s * (self.position - p0))
+
 
 @dataclass(frozen=True)
 class OrientationGoal(Goal):
     """Reach an orientation (3 DOF). ``rotation``: target ``(3, 3)`` in the base frame."""
 
     rotation: Array
+
+    kind: ClassVar[GoalKind] = GoalKind.ORIENTATION
+    label: ClassVar[str] = "orientation"
+    file_type: ClassVar[str] = "orientation"
+    file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (("rpy",), ())
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -175,7 +509,10 @@ class OrientationGoal(Goal):
     @classmethod
     def from_axes(cls, x_axis: npt.ArrayLike, z_axis: npt.ArrayLike, *, frame: str | None = None,
                   weight: float = 1.0, tolerance: Tolerance = Tolerance()) -> OrientationGoal:
-        """The orientation given by two orthogonal unit vectors (the seed's form).
+        """The orientation given by two orthogonal unit vectors.
+
+        This is how the lecture (L. Kavan, *Metody skeletální animace*, 2002) states an
+        orientation goal.
 
         Args:
             x_axis: Target direction of the frame's x axis in the base frame.
@@ -193,6 +530,31 @@ class OrientationGoal(Goal):
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
         return 0.0, _rotation_angle(self.rotation, np.asarray(pose)[:3, :3])
 
+    def packed(self) -> Array:  # noqa: D102
+        return _packed(rotation=self.rotation)
+
+    def nlp_params(self) -> Array:  # noqa: D102
+        return self.rotation.ravel(order="F")
+
+    def nlp_residual(self, ca: Any, rot: Any, pos: Any, params: Any, *,  # noqa: D102
+                     position_scale: float, rotation_scale: float) -> Any:
+        return rotation_scale * ca.vec(rot - ca.reshape(params[0:9], 3, 3))
+
+    @classmethod
+    def from_file(cls, sec: Section, *, frame: str | None, weight: float,  # noqa: D102
+                  tolerance: Tolerance) -> Goal:
+        return cls(rpy_to_matrix(sec.vector("rpy", 3, angle=True)), frame=frame, weight=weight,
+                   tolerance=tolerance)
+
+    def file_fields(self) -> dict[str, Any]:  # noqa: D102
+        return {"rpy": _vec(matrix_to_rpy(self.rotation))}
+
+    @classmethod
+    def from_cli(cls, given: CliGoalInput) -> Goal | None:  # noqa: D102
+        if given.xyz is not None or given.rotation is None or given.own_flags:
+            return None
+        return cls(given.rotation, frame=given.frame, tolerance=given.tolerance)
+
 
 @dataclass(frozen=True)
 class DirectionGoal(Goal):
@@ -208,6 +570,17 @@ class DirectionGoal(Goal):
     direction: Array
     axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 
+    kind: ClassVar[GoalKind] = GoalKind.DIRECTION
+    label: ClassVar[str] = "position + direction"
+    file_type: ClassVar[str] = "direction"
+    file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (
+        ("position", "direction"), ("axis",))
+    cli_arguments: ClassVar[tuple[CliArgument, ...]] = (
+        CliArgument("--direction", ("AXIS", "DX", "DY", "DZ"),
+                    "point the frame's AXIS (x, y or z) along (DX, DY, DZ): a 5-DOF goal",
+                    numbers=False, exclusive=True,
+                    usage="--xyz X Y Z with --direction AXIS DX DY DZ"),)
+
     def __post_init__(self) -> None:
         super().__post_init__()
         object.__setattr__(self, "position", as_vec3(self.position, "goal position"))
@@ -222,12 +595,71 @@ class DirectionGoal(Goal):
         return (float(np.linalg.norm(self.position - m[:3, 3])),
                 _angle(m[:3, :3] @ self.axis, self.direction))
 
+    @property
+    def target_position(self) -> Array:  # noqa: D102
+        return self.position
+
+    def packed(self) -> Array:  # noqa: D102
+        return _packed(position=self.position, direction=self.direction, axis=self.axis)
+
+    def nlp_params(self) -> Array:  # noqa: D102
+        return np.concatenate([self.position, self.direction, self.axis])
+
+    def nlp_residual(self, ca: Any, rot: Any, pos: Any, params: Any, *,  # noqa: D102
+                     position_scale: float, rotation_scale: float) -> Any:
+        return ca.vertcat((pos - params[0:3]) * position_scale,
+                          rotation_scale * (rot @ params[6:9] - params[3:6]))
+
+    @classmethod
+    def from_file(cls, sec: Section, *, frame: str | None, weight: float,  # noqa: D102
+                  tolerance: Tolerance) -> Goal:
+        axis = sec.vector("axis", 3, (0.0, 0.0, 1.0))
+        return cls(np.array(sec.vector("position", 3)), np.array(sec.vector("direction", 3)),
+                   np.array(axis), frame=frame, weight=weight, tolerance=tolerance)
+
+    def file_fields(self) -> dict[str, Any]:  # noqa: D102
+        return {"position": _vec(self.position), "direction": _vec(self.direction),
+                "axis": _vec(self.axis)}
+
+    @classmethod
+    def from_cli(cls, given: CliGoalInput) -> Goal | None:  # noqa: D102
+        raw = given.value("--direction")
+        if raw is None or given.xyz is None:
+            return None
+        axis_name, *values = raw
+        if axis_name.lower() not in _AXES:
+            raise InputError(f"--direction: AXIS must be x, y or z, got {axis_name!r}")
+        try:
+            vec = [float(v) for v in values]
+        except ValueError:
+            raise InputError(f"--direction: DX DY DZ must be numbers, got {values}") from None
+        if not all(math.isfinite(v) for v in vec):
+            raise InputError(f"--direction: DX DY DZ must be finite numbers, got {values}")
+        if not float(np.linalg.norm(vec)) > 1e-9:
+            raise InputError("--direction: the direction DX DY DZ must not be zero")
+        return cls(given.xyz, np.array(vec), np.array(_AXES[axis_name.lower()]),
+                   frame=given.frame, tolerance=given.tolerance)
+
+    def line_span(self, start: Array) -> tuple[float, float]:  # noqa: D102
+        return (float(np.linalg.norm(self.position - start[:3, 3])),
+                _span_angle(start[:3, :3] @ self.axis, self.direction))
+
+    def interpolate(self, start: Array, s: float) -> Goal:  # noqa: D102
+        p0 = start[:3, 3]
+        return replace(self, position=p0 + s * (self.position - p0),
+                       direction=_turn(start[:3, :3] @ self.axis, self.direction, s))
+
 
 @dataclass(frozen=True)
 class PoseGoal(Goal):
     """Reach a full pose (6 DOF). ``pose``: target ``(4, 4)`` in the base frame."""
 
     pose: Array
+
+    kind: ClassVar[GoalKind] = GoalKind.POSE
+    label: ClassVar[str] = "pose"
+    file_type: ClassVar[str] = "pose"
+    file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (("position", "rpy"), ())
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -258,6 +690,141 @@ class PoseGoal(Goal):
         return (float(np.linalg.norm(self.pose[:3, 3] - m[:3, 3])),
                 _rotation_angle(self.pose[:3, :3], m[:3, :3]))
 
+    @property
+    def target_position(self) -> Array:  # noqa: D102
+        return self.pose[:3, 3]
+
+    def packed(self) -> Array:  # noqa: D102
+        return _packed(position=self.pose[:3, 3], rotation=self.pose[:3, :3])
+
+    def nlp_params(self) -> Array:  # noqa: D102
+        return np.concatenate([self.position, self.rotation.ravel(order="F")])
+
+    def nlp_residual(self, ca: Any, rot: Any, pos: Any, params: Any, *,  # noqa: D102
+                     position_scale: float, rotation_scale: float) -> Any:
+        return ca.vertcat((pos - params[0:3]) * position_scale,
+                          rotation_scale * ca.vec(rot - ca.reshape(params[3:12], 3, 3)))
+
+    @classmethod
+    def from_file(cls, sec: Section, *, frame: str | None, weight: float,  # noqa: D102
+                  tolerance: Tolerance) -> Goal:
+        rot = rpy_to_matrix(sec.vector("rpy", 3, angle=True))
+        return cls(make_transform(rot, sec.vector("position", 3)), frame=frame, weight=weight,
+                   tolerance=tolerance)
+
+    def file_fields(self) -> dict[str, Any]:  # noqa: D102
+        return {"position": _vec(self.position), "rpy": _vec(matrix_to_rpy(self.rotation))}
+
+    @classmethod
+    def from_cli(cls, given: CliGoalInput) -> Goal | None:  # noqa: D102
+        if given.xyz is None or given.rotation is None or given.own_flags:
+            return None
+        return cls(make_transform(given.rotation, given.xyz), frame=given.frame,
+                   tolerance=given.tolerance)
+
+    def line_span(self, start: Array) -> tuple[float, float]:  # noqa: D102
+        return (float(np.linalg.norm(self.position - start[:3, 3])),
+                _rotation_angle(self.rotation, start[:3, :3]))
+
+    def interpolate(self, start: Array, s: float) -> Goal:  # noqa: D102
+        p0 = start[:3, 3]
+        quat = slerp(matrix_to_quat(start[:3, :3]), matrix_to_quat(self.rotation), s)
+        return replace(self, pose=make_transform(quat_to_matrix(quat),
+                                                 p0 + s * (self.position - p0)))
+
+
+@dataclass(frozen=True)
+class LookAtGoal(Goal):
+    """Point a tool axis at a point in space (2 DOF), e.g. a wrist camera at an object.
+
+    The error is the angle between the frame's ``axis`` (in the base frame) and the line from the
+    frame's origin to ``point``; the position and the roll about the line are left free. With
+    the frame's origin at ``point`` the direction is undefined and the error is pi. To fix the
+    frame's position too, use a :class:`DirectionGoal` with ``direction = point - position``.
+
+    Attributes:
+        point: The point to look at, in the base frame [m].
+        axis: The tool axis that must point at it, in the goal frame's own coordinates (default:
+            its z axis).
+    """
+
+    point: Array
+    axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+
+    kind: ClassVar[GoalKind] = GoalKind.LOOK_AT
+    label: ClassVar[str] = "look-at"
+    file_type: ClassVar[str] = "look_at"
+    file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (("point",), ("axis",))
+    cli_arguments: ClassVar[tuple[CliArgument, ...]] = (
+        CliArgument("--look-at", ("X", "Y", "Z"),
+                    "point the frame's --axis at the point X Y Z in the base frame [m]: a 2-DOF "
+                    "goal (e.g. a wrist camera); the position is left free",
+                    exclusive=True, usage="--look-at X Y Z [--axis x|y|z]"),
+        CliArgument("--axis", ("AXIS",), "with --look-at: the frame's axis (x, y or z) that "
+                    "points at the point (default z)", numbers=False, choices=("x", "y", "z")),
+    )
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        object.__setattr__(self, "point", as_vec3(self.point, "look-at point"))
+        object.__setattr__(self, "axis", as_unit3(self.axis, "tool axis"))
+        object.__setattr__(self, "dof", 2)
+        object.__setattr__(self, "has_rotation", True)
+
+    def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
+        m = np.asarray(pose)
+        d = self.point - m[:3, 3]
+        if float(np.linalg.norm(d)) < 1e-12:
+            return 0.0, math.pi
+        return 0.0, _angle(m[:3, :3] @ self.axis, d)
+
+    def packed(self) -> Array:  # noqa: D102
+        return _packed(position=self.point, axis=self.axis)
+
+    def nlp_params(self) -> Array:  # noqa: D102
+        return np.concatenate([self.point, self.axis])
+
+    def nlp_residual(self, ca: Any, rot: Any, pos: Any, params: Any, *,  # noqa: D102
+                     position_scale: float, rotation_scale: float) -> Any:
+        d = params[0:3] - pos
+        return rotation_scale * (rot @ params[3:6] - d / ca.sqrt(ca.sumsqr(d) + 1e-12))
+
+    @classmethod
+    def from_file(cls, sec: Section, *, frame: str | None, weight: float,  # noqa: D102
+                  tolerance: Tolerance) -> Goal:
+        return cls(np.array(sec.vector("point", 3)),
+                   np.array(sec.vector("axis", 3, (0.0, 0.0, 1.0))), frame=frame, weight=weight,
+                   tolerance=tolerance)
+
+    def file_fields(self) -> dict[str, Any]:  # noqa: D102
+        return {"point": _vec(self.point), "axis": _vec(self.axis)}
+
+    @classmethod
+    def from_cli(cls, given: CliGoalInput) -> Goal | None:  # noqa: D102
+        point, axis = given.value("--look-at"), given.value("--axis")
+        if point is None:
+            if axis is not None:
+                raise InputError("--axis names the axis of --look-at; give --look-at X Y Z too")
+            return None
+        if given.xyz is not None:
+            raise InputError("--look-at leaves the position free; give it without --xyz (to "
+                             "fix the position too, give --xyz with --direction AXIS DX DY DZ, "
+                             "the direction from --xyz to the point)")
+        return cls(np.array(point, dtype=float), np.array(_AXES[axis or "z"]),
+                   frame=given.frame, tolerance=given.tolerance)
+
+    def line_span(self, start: Array) -> tuple[float, float]:  # noqa: D102
+        d = self.point - start[:3, 3]
+        n = float(np.linalg.norm(d))
+        return 0.0, (_span_angle(start[:3, :3] @ self.axis, d / n) if n > 1e-12 else 0.0)
+
+    def interpolate(self, start: Array, s: float) -> Goal:  # noqa: D102
+        # the point looked at moves on the line from the one the axis points at now, at the
+        # same distance, to the goal's point
+        p0 = start[:3, 3]
+        seen = p0 + float(np.linalg.norm(self.point - p0)) * (start[:3, :3] @ self.axis)
+        return replace(self, point=seen + s * (self.point - seen))
+
 
 GoalLike = Goal | npt.ArrayLike | Sequence[Goal]
 
@@ -286,6 +853,11 @@ def as_goals(goal: GoalLike, tolerance: Tolerance | None = None) -> tuple[Goal, 
             raise InputError("a goal must be a Goal object, a sequence of them, or a 4x4 pose "
                              f"array; got {type(goal).__name__}")
         goals = (PoseGoal(arr, tolerance=tolerance or Tolerance()),)
+    for g in goals:
+        if getattr(type(g), "kind", None) is None:
+            raise InputError(f"{type(g).__name__} has no goal kind: derive it from one of "
+                             f"{', '.join(c.__name__ for c in goal_classes())}, or give it a "
+                             "kind of its own (docs/ik-goals.md, 'Adding a goal type')")
     frames = [g.frame for g in goals]
     if len(set(frames)) != len(frames):
         raise InputError("two goals name the same frame; combine them into one goal")

@@ -1,10 +1,11 @@
 """Secondary criteria for redundant arms, applied in the null space of the task Jacobian.
 
-The seed's redundancy step ``dq = J^+ dx + (I - J^+ J) dz`` moves the joints along ``dz`` only as
-far as the end effector does not move. ``dz = -gain * grad h(q)`` descends the weighted sum ``h``
-of the criteria below; ``pinv`` and ``dls`` use it when :attr:`IKOptions.nullspace` is set, and
-keep improving ``h`` for :attr:`NullSpace.iterations` iterations once the goals are met. The
-result is only returned as a success when every goal is still met (checked by FK).
+The redundancy step of the lecture (L. Kavan, *Metody skeletální animace*, 2002),
+``dq = J^+ dx + (I - J^+ J) dz``, moves the joints along ``dz`` only as far as the end effector
+does not move. ``dz = -gain * grad h(q)`` descends the weighted sum ``h`` of the criteria below;
+``pinv`` and ``dls`` use it when :attr:`IKOptions.nullspace` is set, and keep improving ``h`` for
+:attr:`NullSpace.iterations` iterations once the goals are met. The result is only returned as a
+success when every goal is still met (checked by FK).
 """
 
 from __future__ import annotations
@@ -14,14 +15,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import numpy.typing as npt
 
 from armctl.errors import InputError
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = ["KeepOut", "NullSpace", "ns_arrays"]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -1,29 +1,35 @@
-"""The seed's numerical IK methods as registered solvers.
+"""Numerical IK methods as registered solvers.
 
-The solvers are ``pinv``, ``dls``, ``jt``, ``ccd`` and ``ccd-jt``.
+The solvers are ``pinv``, ``dls``, ``jt``, ``ccd`` and ``ccd-jt``: the numerical methods of the
+lecture (L. Kavan, *Metody skeletální animace*, 2002) and damped least squares. J^T and CCD are
+treated at length by C. Welman, *Inverse Kinematics and Geometric Constraints for Articulated
+Figure Manipulation* (MSc thesis, 1993).
 
-Each iteration linearises the goals with the Jacobian (seed section 7) and takes one step:
+Each iteration linearises the goals with the Jacobian (the lecture's numerical IK) and takes one
+step:
 
-* ``pinv`` (section 8): the Moore-Penrose step ``dq = J^+ e`` by SVD (singular values below
-  ``1e-6 s_max`` are dropped); steps are capped at 0.5 rad per joint.
+* ``pinv`` (the lecture's pseudoinverse): the Moore-Penrose step ``dq = J^+ e`` by SVD
+  (singular values below ``1e-6 s_max`` are dropped); steps are capped at 0.5 rad per joint.
 * ``dls``: damped least squares / Levenberg-Marquardt, ``dq = (J^T J + lambda I)^-1 J^T e``
   with ``lambda = mu E + 1e-9`` (``E = |e|^2 / 2``): near a goal the step becomes Gauss-Newton,
   far from it or where steps fail (near singularities, where ``J^T J`` is ill-conditioned) the
   damping grows: a step that does not lower ``E`` is rejected and ``mu`` multiplied by 8; an
   accepted step divides it by 4.
-* ``jt`` (section 10): ``dq = alpha J^T e`` with the step length ``alpha`` that minimises the
-  linearised error; a step that does not lower the real error is halved (up to 4 times) or
-  skipped.
-* ``ccd`` (section 11): one sweep turns every joint, tip to base, by the closed-form angle that
-  maximises the seed's ``k1 (1 - cos t) + k2 cos t + k3 sin t`` (position and orientation
-  terms); prismatic joints slide by the closed-form least-squares distance.
-* ``ccd-jt`` (section 12, "combine CCD with J^T"): every iteration is a CCD sweep followed by one
-  optimal J^T step (kept only if it lowers the error), which spreads the correction over all
-  joints.
+* ``jt`` (the lecture's Jacobian transpose): ``dq = alpha J^T e`` with the step length
+  ``alpha`` that minimises the linearised error; a step that does not lower the real error is
+  halved (up to 4 times) or skipped.
+* ``ccd`` (the lecture's cyclic coordinate descent): one sweep turns every joint, tip to base, by
+  the closed-form angle that maximises the lecture's ``k1 (1 - cos t) + k2 cos t + k3 sin t``
+  (position and orientation terms); prismatic joints slide by the closed-form least-squares
+  distance.
+* ``ccd-jt`` (the lecture's comparison: "combine CCD with J^T"): every iteration is a CCD sweep
+  followed by one optimal J^T step (kept only if it lowers the error), which spreads the
+  correction over all joints.
 
-``pinv`` and ``dls`` add null-space criteria (section 9) when ``options.nullspace`` is set. All
-of them clamp into the joint limits after every step, restart from uniform random
-configurations when an attempt stalls or uses up its iterations, and stop at the time limit.
+``pinv`` and ``dls`` add null-space criteria (the lecture's redundancy step) when
+``options.nullspace`` is set. All of them clamp into the joint limits after every step, restart
+from uniform random configurations when an attempt stalls or uses up its iterations, and stop at
+the time limit.
 """
 
 from __future__ import annotations
@@ -43,12 +49,13 @@ from armctl.ik._pack import model_arrays, pack_goals, seed_state, wrap_continuou
 from armctl.ik.goals import Goal
 from armctl.ik.nullspace import ns_arrays
 from armctl.ik.options import IKOptions
+from armctl.ik.registry import check_request
 from armctl.ik.result import IKResult, IKStatus, finish
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = ["MethodParams", "ccd", "ccd_jt", "dls", "jt", "method_params", "pinv", "run_method"]
 
-Array = npt.NDArray[np.float64]
 
 _METHODS = {"pinv": E.PINV, "dls": E.DLS, "jt": E.JT, "ccd": E.CCD, "ccd-jt": E.CCD_JT}
 
@@ -107,7 +114,7 @@ def _method_params(model: KinematicModel, p: MethodParams, options: IKOptions) -
     prm[E.P_WINDOW] = p.window
     prm[E.P_RATIO] = p.ratio
     prm[E.P_MAX_STEP] = p.max_step
-    prm[E.P_RHO2] = (0.25 * model_arrays(model).reach) ** 2
+    prm[E.P_RHO2] = (0.25 * model.tree.max_reach) ** 2
     prm[E.P_RCOND] = p.rcond
     prm[E.P_MARGIN] = 0.99
     ns = options.nullspace
@@ -160,26 +167,24 @@ def run_method(
     """
     t0 = time.perf_counter() if started is None else started
     check_no_constraints(name, constraints)
+    check_request(name, goals)  # a goal kind the method has no form for (CCD: look-at)
     method = _METHODS[name]
     ma = model_arrays(model)
     ga = pack_goals(model, goals)
-    nsw, pref, spheres = ns_arrays(model, options.nullspace)
-    prm = method_params(model, method, options, params)
-    q_out = np.empty(model.dof)
+    run = (method, method_params(model, method, options, params), options.max_iterations,
+           options.restarts + 1, max(options.time_limit - (time.perf_counter() - t0), 1e-9))
+    q_out = np.full(model.dof, np.nan)  # stays NaN if no attempt ever had a finite error
     tr = trace if trace is not None else np.empty((0, 2))
     status, iters, attempts, stalled = E.solve(
-        np.array(q0, dtype=float), ma.lower, ma.upper, model._jd, model._parent,
-        model._fd, model._paths, ga.gf, ga.gt, ga.gd, ga.gw, ga.gtol, ga.mask, method, prm,
-        options.max_iterations, options.restarts + 1,
-        max(options.time_limit - (time.perf_counter() - t0), 1e-9),
-        seed_state(options.seed), nsw, pref, spheres, q_out, tr)
+        np.array(q0, dtype=float), ma.kernel, ga.kernel, run,
+        ns_arrays(model, options.nullspace), seed_state(options.seed), q_out, tr)
     return _finish(label or name, model, goals, q_out, ma.continuous, status, iters, attempts,
-                   stalled, t0)
+                   stalled, t0, q0)
 
 
 def _finish(name: str, model: KinematicModel, goals: tuple[Goal, ...], q: Array,
             continuous: npt.NDArray[np.bool_], status: int, iters: int, attempts: int,
-            stalled: int, started: float) -> IKResult:
+            stalled: int, started: float, start: Array) -> IKResult:
     q = wrap_continuous(q, continuous)
     message = ""
     if status == E.CONVERGED:
@@ -195,12 +200,13 @@ def _finish(name: str, model: KinematicModel, goals: tuple[Goal, ...], q: Array,
         st = IKStatus.MAX_ITERATIONS
         message = f"iteration budget used up in {attempts} start(s)"
     return finish(model, goals, q, solver=name, status=st, iterations=int(iters),
-                  restarts=max(int(attempts) - 1, 0), started=started, message=message)
+                  restarts=max(int(attempts) - 1, 0), started=started, message=message,
+                  start=start, search=True)
 
 
 def pinv(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
          constraints: Sequence[Any]) -> IKResult:
-    """Moore-Penrose pseudoinverse IK (seed section 8), null-space criteria optional."""
+    """Moore-Penrose pseudoinverse IK as in the lecture, null-space criteria optional."""
     return run_method("pinv", model, goals, q0, options, constraints)
 
 
@@ -212,17 +218,17 @@ def dls(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOp
 
 def jt(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
        constraints: Sequence[Any]) -> IKResult:
-    """Jacobian-transpose IK with the optimal step length (seed section 10)."""
+    """Jacobian-transpose IK (the lecture's virtual-force step) with the optimal step length."""
     return run_method("jt", model, goals, q0, options, constraints)
 
 
 def ccd(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
         constraints: Sequence[Any]) -> IKResult:
-    """Cyclic coordinate descent with the seed's closed-form joint angle (section 11)."""
+    """Cyclic coordinate descent with the lecture's closed-form joint angle."""
     return run_method("ccd", model, goals, q0, options, constraints)
 
 
 def ccd_jt(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
            constraints: Sequence[Any]) -> IKResult:
-    """CCD sweeps alternated with optimal Jacobian-transpose steps (section 12)."""
+    """CCD sweeps alternated with optimal Jacobian-transpose steps (the lecture's combination)."""
     return run_method("ccd-jt", model, goals, q0, options, constraints)

@@ -1,7 +1,14 @@
-"""The result every IK solver returns, and the one place that decides ``success``."""
+"""The result every IK solver returns, and the one place that decides ``success``.
+
+:func:`finish` also settles the two statuses that need a look at the answer: ``FAILED`` for
+non-finite joint values or goal errors, ``SINGULAR`` for a failed search that ended at a
+singular configuration of its goals (:mod:`armctl.ik.singular`). The statuses are listed in
+``docs/ik-goals.md``.
+"""
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -11,30 +18,34 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
+from armctl.errors import InputError
 from armctl.ik.goals import Goal
+from armctl.ik.singular import SINGULAR_THRESHOLD, stuck_at_singularity
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
-__all__ = ["CheckedConstraint", "ConstraintError", "GoalError", "IKResult", "IKStatus", "evaluate",
-           "finish"]
-
-Array = npt.NDArray[np.float64]
+__all__ = ["CheckedConstraint", "ConstraintViolation", "GoalResidual", "IKResult", "IKStatus",
+           "evaluate", "finish"]
 
 
 class IKStatus(Enum):
-    """How an IK solve ended."""
+    """How an IK solve ended; ``success`` holds exactly for ``CONVERGED``."""
 
     CONVERGED = "converged"  # every goal met within tolerance, inside the joint limits
     MAX_ITERATIONS = "max_iterations"  # iteration budget used up before convergence
     TIME_LIMIT = "time_limit"  # time budget used up before convergence
-    UNREACHABLE = "unreachable"  # the goal lies outside the reachable set; closest q returned
+    UNREACHABLE = "unreachable"  # no solution: every start ended at a minimum of the error, or
+    # the closed form has none; the closest q returned
     INFEASIBLE = "infeasible"  # constraints that cannot hold together; best compromise returned
-    SINGULAR = "singular"  # a singular goal; representatives returned
-    FAILED = "failed"  # numerical failure inside the solver
+    SINGULAR = "singular"  # a search that ended at a singular configuration of its goals
+    # where the error still falls (armctl.ik.singular); that q returned
+    FAILED = "failed"  # numerical failure: non-finite joint values or goal errors; the start
+    # returned
 
 
 @dataclass(frozen=True)
-class GoalError:
-    """How far one goal is from being met.
+class GoalResidual:
+    """How far one goal is from being met (a record of the result, not an exception).
 
     Attributes:
         frame: The goal's frame.
@@ -72,8 +83,8 @@ class CheckedConstraint(Protocol):
 
 
 @dataclass(frozen=True)
-class ConstraintError:
-    """How far one constraint is from holding.
+class ConstraintViolation:
+    """How far one constraint is from holding (a record of the result, not an exception).
 
     Attributes:
         name: What the constraint is, e.g. ``"on plane (frame tool)"``.
@@ -107,7 +118,7 @@ class IKResult:
         restarts: Restarts used beyond the first attempt.
         position_error: Largest position error over the goals [m].
         rotation_error: Largest rotation error over the goals [rad].
-        goal_errors: Per-goal errors.
+        goal_errors: Per-goal residuals.
         within_limits: Whether ``q`` is inside the joint limits.
         time: Wall time of the solve [s].
         message: A human-readable summary.
@@ -122,15 +133,15 @@ class IKResult:
     restarts: int
     position_error: float
     rotation_error: float
-    goal_errors: tuple[GoalError, ...]
+    goal_errors: tuple[GoalResidual, ...]
     within_limits: bool
     time: float
     message: str = ""
-    constraint_errors: tuple[ConstraintError, ...] = ()
+    constraint_errors: tuple[ConstraintViolation, ...] = ()
 
 
 def evaluate(model: KinematicModel, goals: tuple[Goal, ...],
-             q: npt.ArrayLike) -> tuple[GoalError, ...]:
+             q: npt.ArrayLike) -> tuple[GoalResidual, ...]:
     """Per-goal errors of ``q`` by forward kinematics.
 
     Args:
@@ -139,14 +150,14 @@ def evaluate(model: KinematicModel, goals: tuple[Goal, ...],
         q: Joint vector ``(dof,)``.
 
     Returns:
-        One :class:`GoalError` per goal.
+        One :class:`GoalResidual` per goal.
     """
     out = []
     for g in goals:
         frame = g.frame or model.tool
         dp, dr = g.errors(model.fk(q, frame))
         reached = dp <= g.tolerance.position and dr <= g.tolerance.rotation
-        out.append(GoalError(frame, dp, dr, reached))
+        out.append(GoalResidual(frame, dp, dr, reached))
     return tuple(out)
 
 
@@ -162,13 +173,25 @@ def finish(
     started: float,
     message: str = "",
     constraints: Sequence[CheckedConstraint] = (),
+    start: npt.ArrayLike | None = None,
+    search: bool = False,
 ) -> IKResult:
     """Build the result, deciding ``success`` from FK and the joint limits.
 
     A solver passes the status it believes in; if the check disagrees (the solver said converged
     but a goal is not met or a limit is violated) the status becomes ``MAX_ITERATIONS``, and a
-    failing status stays as given. A solver that reports anything but ``CONVERGED`` for a
-    configuration that in fact meets every goal gets ``CONVERGED``.
+    failing status stays as given, except:
+
+    * ``FAILED`` when ``q`` has a NaN or infinite value (``start`` is returned instead) or a goal
+      error or constraint violation is not finite;
+    * ``SINGULAR`` for a search (``search``) that reports ``UNREACHABLE`` or ``MAX_ITERATIONS``
+      with a goal not reached, at a configuration that is singular for the goals (a singular
+      value of the dimensionless goal Jacobian below
+      :data:`armctl.ik.singular.SINGULAR_THRESHOLD`) where the error still falls along a lost
+      direction (:func:`armctl.ik.singular.stuck_at_singularity`).
+
+    A solver that reports anything but ``CONVERGED`` for a configuration that in fact meets every
+    goal gets ``CONVERGED``.
 
     Args:
         model: The arm.
@@ -182,31 +205,59 @@ def finish(
         message: Extra text for the summary.
         constraints: Constraints (:class:`CheckedConstraint`); success also requires every
             hard one to hold within its tolerance.
+        start: The solve's start ``(dof,)``, returned when ``q`` is not finite; the middle of
+            the ranges when not given.
+        search: Whether the solver searches iteratively from a start (and can get stuck at a
+            singular configuration); a closed form's verdict is never changed to ``SINGULAR``.
 
     Returns:
         The result.
     """
-    qa = np.array(model.as_q(q), dtype=float)
+    try:
+        qa = np.array(model.as_q(q), dtype=float)
+        finite = True
+    except InputError:  # a wrong shape (a bug: raised again), or a NaN or infinite value
+        if np.shape(q) != (model.dof,):
+            raise
+        qa = np.array(model.as_q(model.middle() if start is None else start), dtype=float)
+        finite = False
     qa.setflags(write=False)
     errs = evaluate(model, goals, qa)
     inside = model.within_limits(qa)
     cerrs = []
     for c in constraints:
         v = float(c.violation(model, qa))
-        cerrs.append(ConstraintError(c.describe(model), v, float(c.tolerance), bool(c.hard),
-                                     v <= c.tolerance))
-    met = all(e.reached for e in errs) and all(e.satisfied for e in cerrs if e.hard)
+        cerrs.append(ConstraintViolation(c.describe(model), v, float(c.tolerance),
+                                         bool(c.hard), v <= c.tolerance))
+    reached = all(e.reached for e in errs)
+    met = reached and all(e.satisfied for e in cerrs if e.hard)
     success = met and inside
-    if success:
-        status = IKStatus.CONVERGED
-    elif status is IKStatus.CONVERGED:
-        status = IKStatus.MAX_ITERATIONS
     dp = max(e.position for e in errs)
     dr = max(e.rotation for e in errs)
+    notes = [message] if message else []
+    if success:
+        status = IKStatus.CONVERGED
+    elif not finite or not _finite(errs, cerrs):
+        status = IKStatus.FAILED
+        dp = math.nan if any(math.isnan(e.position) for e in errs) else dp  # max() may skip it
+        dr = math.nan if any(math.isnan(e.rotation) for e in errs) else dr
+        notes.insert(0, "numerical failure: " + (
+            "a goal error or constraint violation is not finite" if finite else
+            "the solver returned non-finite joint values; the start is returned"))
+    elif status is IKStatus.CONVERGED:
+        status = IKStatus.MAX_ITERATIONS
+    elif (search and not reached
+          and status in (IKStatus.UNREACHABLE, IKStatus.MAX_ITERATIONS)):
+        sigma = stuck_at_singularity(model, goals, qa)
+        if sigma is not None:
+            status = IKStatus.SINGULAR
+            notes.append(f"ended at a singular configuration (smallest singular value of the "
+                         f"goal Jacobian {sigma:.2g} < {SINGULAR_THRESHOLD:g}); another start "
+                         "or more restarts may reach the goal")
     summary = (f"{solver}: {status.value}; position error {dp:.3g} m, rotation error "
                f"{dr:.3g} rad{'' if inside else ', outside the joint limits'}")
-    if message:
-        summary += f"; {message}"
+    for note in notes:
+        summary += f"; {note}"
     broken = [e for e in cerrs if e.hard and not e.satisfied]
     if broken:
         worst = max(broken, key=lambda e: e.violation)
@@ -214,3 +265,9 @@ def finish(
                     f"{worst.violation:.3g}")
     return IKResult(qa, success, status, solver, iterations, restarts, dp, dr, errs, inside,
                     time.perf_counter() - started, summary, tuple(cerrs))
+
+
+def _finite(errs: Sequence[GoalResidual], cerrs: Sequence[ConstraintViolation]) -> bool:
+    """Whether every goal error and constraint violation is a finite number."""
+    return all(math.isfinite(e.position) and math.isfinite(e.rotation) for e in errs) and all(
+        math.isfinite(c.violation) for c in cerrs)

@@ -1,13 +1,20 @@
 """Compiled (numba) kernels for forward kinematics and geometric Jacobians.
 
-The tree is packed into flat arrays by :class:`armctl.kinematics.model.KinematicModel`:
+The tree is packed into flat arrays by :func:`armctl.kinematics.compiled_tree.compile_tree`
+(:class:`~armctl.kinematics.compiled_tree.CompiledTree` documents each array and names its
+columns); the kernels take them as plain arguments:
 
-* ``jd`` ``(n, 16)``: per actuated joint, rows 0-2 of the constant transform from the parent
-  joint's frame (or the base) to this joint's frame before its motion (12 numbers, row-major
-  3x4), then the unit axis (3) and 1.0 for prismatic / 0.0 for revolute joints.
-* ``parent`` ``(n,)``: the index of the parent actuated joint, -1 for the base.
-* ``fd`` ``(m, 12)``: per named frame, its constant 3x4 offset from its anchor joint's frame.
-* ``paths`` ``(m, n)``: per frame, the joints from the base to its anchor, padded with -1.
+* ``jd`` ``(n, 16)``: :attr:`CompiledTree.joints`: per actuated joint, rows 0-2 of the constant
+  transform from the parent joint's frame (or the base) to this joint's frame before its motion
+  (12 numbers, row-major 3x4), then the unit axis (3) and 1.0 for prismatic / 0.0 for revolute
+  joints.
+* ``parent`` ``(n,)``: :attr:`CompiledTree.parent`: the index of the parent actuated joint, -1
+  for the base.
+* ``fd`` ``(m, 12)``: :attr:`CompiledTree.frames`: per named frame, its constant 3x4 offset from
+  its anchor joint's frame.
+* ``anchor`` ``(m,)``: :attr:`CompiledTree.anchor`: the joint carrying each frame, -1 for the base.
+* ``paths`` ``(m, n)``: :attr:`CompiledTree.paths`: per frame, the joints from the base to its
+  anchor, padded with -1.
 
 A joint's frame after its motion is ``T_parent @ pre @ M(q)`` where ``M`` is a rotation about the
 axis (revolute) or a translation along it (prismatic).

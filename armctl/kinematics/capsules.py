@@ -32,6 +32,7 @@ import numpy.typing as npt
 from armctl.config.schema import ArmSpec, Box, Capsule, Cylinder, Geometry, Mesh, Sphere
 from armctl.kinematics.linkshapes import GeometryRole, link_shapes, read_mesh
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = [
     "BodyCapsule",
@@ -43,8 +44,6 @@ __all__ = [
     "shape_capsule",
     "world_segments",
 ]
-
-Array = npt.NDArray[np.float64]
 
 
 def _t3(v: Array) -> tuple[float, float, float]:
@@ -169,13 +168,13 @@ def _body_capsules(model: KinematicModel, radius: float | None) -> tuple[BodyCap
     out: list[BodyCapsule] = []
     for name, caps in collision_capsules(model.spec, radius).items():
         k = model.frame_index(name)
-        body = int(model._anchor[k])
+        body = int(model.tree.anchor[k])
         if body < 0:  # fixed to the base: nothing a joint does moves it
             continue
-        off = model._fd[k].reshape(3, 4)
+        off = model.tree.frame_offset(k)
         for c in caps:
-            a = off[:, :3] @ np.asarray(c.a) + off[:, 3]
-            b = off[:, :3] @ np.asarray(c.b) + off[:, 3]
+            a = off[:3, :3] @ np.asarray(c.a) + off[:3, 3]
+            b = off[:3, :3] @ np.asarray(c.b) + off[:3, 3]
             out.append(BodyCapsule(name, body, _t3(a), _t3(b), c.radius))
     return tuple(out)
 

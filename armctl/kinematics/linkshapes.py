@@ -33,6 +33,7 @@ from armctl.config.schema import (
 )
 from armctl.errors import ConfigError, KeyPath
 from armctl.spatial import axis_angle_to_matrix, matrix_to_rpy
+from armctl.typing import Array
 
 __all__ = [
     "GeometryRole",
@@ -44,7 +45,6 @@ __all__ = [
     "z_to_direction_rpy",
 ]
 
-Array = npt.NDArray[np.float64]
 
 _EPS = 1e-9
 
@@ -79,6 +79,8 @@ class MeshLoadError(ConfigError):
         link: The link whose geometry names it.
         problem: What went wrong.
         config: The arm config that names the mesh, when known.
+
+    ``details`` as for :class:`ConfigError`, and ``mesh`` (the file) and ``link``.
     """
 
     def __init__(self, path: Path, link: str, problem: str, config: Path | None = None):
@@ -90,6 +92,7 @@ class MeshLoadError(ConfigError):
             "check the mesh path (relative paths and package:// URLs resolve against the config's "
             "folder); STL, OBJ and DAE (DAE needs pycollada) are supported",
         )
+        self.details.update(mesh=str(path), link=link)
 
 
 @lru_cache(maxsize=64)

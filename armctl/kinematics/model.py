@@ -12,10 +12,16 @@ from armctl.config.schema import ArmSpec, JointRole, JointType
 from armctl.config.tree import check_arm_size
 from armctl.errors import InputError, JointLimitError, KeyPath, UnknownNameError
 from armctl.kinematics import _kernels as K
+from armctl.kinematics.compiled_tree import (
+    FRAME_OFFSET,
+    JOINT_COLUMNS,
+    JOINT_ORIGIN,
+    CompiledTree,
+    compile_tree,
+)
+from armctl.typing import Array
 
 __all__ = ["KinematicModel"]
-
-Array = npt.NDArray[np.float64]
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -28,7 +34,9 @@ class KinematicModel:
 
     Fixed joints are folded into constant transforms. The joint vector ``q`` lists the actuated
     joints parents-first (the order of :attr:`joint_names`), in [rad] for revolute and continuous
-    joints and [m] for prismatic joints. Poses are ``(4, 4)`` transforms in the base frame.
+    joints and [m] for prismatic joints. Poses are ``(4, 4)`` transforms in the base frame. The
+    compiled arrays the kernels take are public as :attr:`tree`
+    (:class:`~armctl.kinematics.compiled_tree.CompiledTree`).
 
     Args:
         spec: A validated arm description.
@@ -47,8 +55,12 @@ class KinematicModel:
         self.joint_names: tuple[str, ...] = tuple(j.name for j in joints)
         self.joint_types: tuple[JointType, ...] = tuple(j.type for j in joints)
         self.joint_roles: tuple[JointRole, ...] = tuple(j.role for j in joints)
-        self.lower: Array = _readonly(np.array([j.limits.lower for j in joints], dtype=float))
-        self.upper: Array = _readonly(np.array([j.limits.upper for j in joints], dtype=float))
+        #: The compiled tree: the arrays the kernels take (their layout is documented there).
+        self.tree: CompiledTree = compile_tree(spec)
+        #: Lower position limits [rad]/[m] (-inf for continuous joints).
+        self.lower: Array = self.tree.lower
+        #: Upper position limits [rad]/[m] (+inf for continuous joints).
+        self.upper: Array = self.tree.upper
         nan = float("nan")
 
         def arr(key: str) -> Array:
@@ -64,73 +76,24 @@ class KinematicModel:
         self.tool: str = spec.tool
         self.end_effectors: tuple[str, ...] = spec.end_effectors
         self._joint_index = {name: i for i, name in enumerate(self.joint_names)}
-        self._compile(spec)
-
-    # ---- compilation --------------------------------------------------------------------------
-    def _compile(self, spec: ArmSpec) -> None:
-        n = self.dof
-        jd = np.zeros((n, 16))
-        parent = np.full(n, -1, dtype=np.int64)
-        anchor: dict[str, tuple[int, np.ndarray]] = {spec.base: (-1, np.eye(4))}
-        for j in spec.joints:  # parents first
-            a, t = anchor[j.parent]
-            pre = t @ j.origin.matrix()
-            if j.type is JointType.FIXED:
-                anchor[j.child] = (a, pre)
-                continue
-            i = self._joint_index[j.name]
-            jd[i, :12] = pre[:3, :4].reshape(12)
-            jd[i, 12:15] = j.axis
-            jd[i, 15] = 1.0 if j.type is JointType.PRISMATIC else 0.0
-            parent[i] = a
-            anchor[j.child] = (i, np.eye(4))
-        names = [lk.name for lk in spec.links]
-        offsets = [anchor[lk] for lk in names]
-        for f in spec.frames:
-            a, t = anchor[f.parent]
-            names.append(f.name)
-            offsets.append((a, t @ f.origin.matrix()))
-        m = len(names)
-        fd = np.zeros((m, 12))
-        frame_anchor = np.full(m, -1, dtype=np.int64)
-        width = max(n, 1)
-        # the joints from the base to each joint, parents first: the parent's row plus the joint
-        # (one row copy per joint; parents have lower indices than their children)
-        depth = np.zeros(n, dtype=np.int64)
-        joint_paths = np.full((n, width), -1, dtype=np.int64)
-        for i in range(n):
-            p, d = int(parent[i]), 0
-            if p >= 0:
-                d = int(depth[p])
-                joint_paths[i, :d] = joint_paths[p, :d]
-            joint_paths[i, d] = i
-            depth[i] = d + 1
-        paths = np.full((m, width), -1, dtype=np.int64)
-        for k, (a, t) in enumerate(offsets):
-            fd[k] = t[:3, :4].reshape(12)
-            frame_anchor[k] = a
-            if a >= 0:
-                paths[k] = joint_paths[a]
+        #: Links first, then the extra frames: the row order of ``tree.frames``.
+        self.frame_names: tuple[str, ...] = self.tree.frame_names
+        self._frame_index = {name: i for i, name in enumerate(self.frame_names)}
+        self._tool_index = self._frame_index[spec.tool]
         #: Per frame, the compact rows the single-frame kernels read, built on first use: built
         #: for every frame at once they would take memory quadratic in the length of a chain.
-        self._chains: list[tuple[np.ndarray, np.ndarray] | None] = [None] * m
-        self.frame_names: tuple[str, ...] = tuple(names)
-        self._frame_index = {name: i for i, name in enumerate(names)}
-        self._jd = _readonly(jd)
-        self._parent = _readonly(parent)
-        self._fd = _readonly(fd)
-        self._anchor = _readonly(frame_anchor)
-        self._paths = _readonly(paths)
-        self._tool_index = self._frame_index[spec.tool]
+        self._chains: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(self.frame_names)
 
+    # ---- single-frame chains ------------------------------------------------------------------
     def _chain_of(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The kernel rows and joint indices of frame ``k``'s chain (cached)."""
         found = self._chains[k]
         if found is None:
-            idx = self._paths[k][self._paths[k] >= 0].astype(np.int64)
-            rows = np.zeros((idx.size + 1, 16))
-            rows[: idx.size] = self._jd[idx]
-            rows[idx.size, :12] = self._fd[k]
+            tree = self.tree
+            idx = tree.chain(k)
+            rows = np.zeros((idx.size + 1, JOINT_COLUMNS))
+            rows[: idx.size] = tree.joints[idx]
+            rows[idx.size, JOINT_ORIGIN] = tree.frames[k, FRAME_OFFSET]
             found = self._chains[k] = (_readonly(rows), _readonly(idx))
         return found
 
@@ -161,12 +124,25 @@ class KinematicModel:
 
     def chain(self, frame: str | None = None) -> tuple[int, ...]:
         """Indices of the joints that move a frame, from the base outwards."""
-        path = self._paths[self.frame_index(frame)]
+        path = self.tree.paths[self.frame_index(frame)]
         return tuple(int(j) for j in path if j >= 0)
 
     def parent_joint(self, joint: int) -> int:
         """Index of the actuated joint that carries ``joint``, -1 for the base."""
-        return int(self._parent[joint])
+        return int(self.tree.parent[joint])
+
+    def reach(self, frame: str | None = None, *, from_first_joint: bool = False) -> float:
+        """An upper bound of a frame's distance from the base over every configuration [m].
+
+        Args:
+            frame: Frame name; the tool frame when ``None``.
+            from_first_joint: Measure from the origin of the first joint of the frame's chain
+                instead of the base origin (see :meth:`CompiledTree.reach`).
+
+        Raises:
+            UnknownNameError: If there is no such frame.
+        """
+        return self.tree.reach(self.frame_index(frame), from_first_joint=from_first_joint)
 
     # ---- checks -------------------------------------------------------------------------------
     def as_q(self, q: npt.ArrayLike, what: str = "q") -> Array:
@@ -295,8 +271,8 @@ class KinematicModel:
         Returns:
             ``(N, 4, 4)`` poses.
         """
-        return K.fk_batch(self.as_batch(qs), self._jd, self._fd, self._paths,
-                          self.frame_index(frame))
+        t = self.tree
+        return K.fk_batch(self.as_batch(qs), t.joints, t.frames, t.paths, self.frame_index(frame))
 
     def fk_all(self, q: npt.ArrayLike) -> dict[str, Array]:
         """Poses of every named frame (links and extra frames) at once.
@@ -307,12 +283,13 @@ class KinematicModel:
         Returns:
             Frame name -> ``(4, 4)`` pose.
         """
-        poses = K.fk_all(self.as_q(q), self._jd, self._parent, self._anchor, self._fd)
+        poses = self.fk_frames(q)
         return {name: poses[i] for i, name in enumerate(self.frame_names)}
 
     def fk_frames(self, q: npt.ArrayLike) -> Array:
         """Poses ``(m, 4, 4)`` of every frame, in the order of :attr:`frame_names`."""
-        return K.fk_all(self.as_q(q), self._jd, self._parent, self._anchor, self._fd)
+        t = self.tree
+        return K.fk_all(self.as_q(q), t.joints, t.parent, t.anchor, t.frames)
 
     def jacobian(self, q: npt.ArrayLike, frame: str | None = None) -> Array:
         """Geometric Jacobian of a frame's origin, in the base frame.
@@ -334,7 +311,8 @@ class KinematicModel:
 
     def jacobian_batch(self, qs: npt.ArrayLike, frame: str | None = None) -> Array:
         """Geometric Jacobians ``(N, 6, dof)`` for many joint vectors ``(N, dof)``."""
-        return K.jacobian_batch(self.as_batch(qs), self._jd, self._fd, self._paths,
+        t = self.tree
+        return K.jacobian_batch(self.as_batch(qs), t.joints, t.frames, t.paths,
                                 self.frame_index(frame))
 
     def fk_jacobian(self, q: npt.ArrayLike, frame: str | None = None) -> tuple[Array, Array]:

@@ -1,7 +1,7 @@
 """Forward kinematics as CasADi expressions, generated from the compiled model's packed arrays.
 
-The expressions are built from the same arrays the numba kernels use (``model._jd``,
-``model._parent``, ``model._anchor``, ``model._fd``), so there is one description of the arm: a
+The expressions are built from the same compiled tree the numba kernels use (``model.tree``,
+:class:`~armctl.kinematics.compiled_tree.CompiledTree`), so there is one description of the arm: a
 joint's frame after its motion is ``T_parent @ pre @ M(q)``, with ``M`` a rotation about the
 joint axis (Rodrigues) or a translation along it, and a named frame is its anchor joint's frame
 times its constant offset. CasADi is imported only when this module is used.
@@ -63,14 +63,14 @@ class SymbolicFK:
         if cached is not None:
             return cached
         ca = _casadi()
-        r_par, p_par = self.joint_frame(int(self.model._parent[j]))
-        row = self.model._jd[j]
-        pre = row[:12].reshape(3, 4)
-        r_pre = r_par @ ca.DM(pre[:, :3])
-        p_pre = p_par + r_par @ ca.DM(pre[:, 3])
-        axis = row[12:15]
+        tree = self.model.tree
+        r_par, p_par = self.joint_frame(int(tree.parent[j]))
+        pre = tree.joint_origin(j)
+        r_pre = r_par @ ca.DM(pre[:3, :3])
+        p_pre = p_par + r_par @ ca.DM(pre[:3, 3])
+        axis = tree.joint_axis(j)
         qj = self.q[j]
-        if row[15] > 0.5:
+        if tree.is_prismatic(j):
             out = (r_pre, p_pre + r_pre @ ca.DM(axis) * qj)
         else:
             c, s = ca.cos(qj), ca.sin(qj)
@@ -89,9 +89,10 @@ class SymbolicFK:
     def frame_by_index(self, f: int) -> tuple[Any, Any]:
         """Rotation and position of the frame with index ``f`` in ``model.frame_names``."""
         ca = _casadi()
-        r_a, p_a = self.joint_frame(int(self.model._anchor[f]))
-        off = self.model._fd[f].reshape(3, 4)
-        return r_a @ ca.DM(off[:, :3]), p_a + r_a @ ca.DM(off[:, 3])
+        tree = self.model.tree
+        r_a, p_a = self.joint_frame(int(tree.anchor[f]))
+        off = tree.frame_offset(f)
+        return r_a @ ca.DM(off[:3, :3]), p_a + r_a @ ca.DM(off[:3, 3])
 
     def point(self, body: int, local: np.ndarray) -> Any:
         """A point fixed in joint ``body``'s frame (-1: the base), in base coordinates [m]."""

@@ -1,4 +1,8 @@
-"""CCD's closed-form joint step against a brute-force 1-D maximisation of the seed's objective."""
+"""CCD's closed-form joint step against a brute-force 1-D maximisation of its objective.
+
+The objective is the one of the CCD derivation in the lecture (L. Kavan, *Metody skeletální
+animace*, 2002).
+"""
 
 from __future__ import annotations
 
@@ -17,7 +21,7 @@ RHO2 = 0.04  # weight of the orientation term [m^2]
 
 
 def _objective_by_fk(arm: Arm, goals, q: np.ndarray, j: int, theta: float) -> float:
-    """The seed's g(theta) = sum_goals w1 g1 + w2 g2, evaluated by forward kinematics."""
+    """The lecture's g(theta) = sum_goals w1 g1 + w2 g2, evaluated by forward kinematics."""
     qt = q.copy()
     qt[j] += theta
     child = arm.spec.joint(arm.joint_names[j]).child
@@ -39,8 +43,8 @@ def _objective_by_fk(arm: Arm, goals, q: np.ndarray, j: int, theta: float) -> fl
 def _closed_form_step(arm: Arm, goals, q: np.ndarray, j: int) -> float:
     ga = pack_goals(arm, goals)
     world = np.empty((arm.dof, 3, 4))
-    E.joint_frames(q, arm._jd, arm._parent, world)
-    w = world[j, :, :3] @ arm._jd[j, 12:15]
+    E.joint_frames(q, arm.tree.joints, arm.tree.parent, world)
+    w = world[j, :, :3] @ arm.tree.joint_axis(j)
     o = world[j, :, 3].copy()
     pose = np.array([arm.fk(q, g.frame) for g in goals])
     k1, k2, k3 = E.ccd_coefficients(w, o, ga.gt, ga.gd, ga.gw, ga.mask, j, pose, RHO2)

@@ -81,9 +81,7 @@ def test_unreachable_message_is_one_line_with_a_reach_hint(capsys):
     # independent truth: the distance from the first joint's origin (its pose at q = 0)
     first = arm.joint_names[arm.chain()[0]]
     assert first == "shoulder_pan"
-    from armctl.cli.ik import max_reach
-
-    reach = max_reach(arm)
+    reach = arm.reach(from_first_joint=True)
     assert 0.3 < reach < 0.7
     assert f"the arm reaches at most about {reach:.2f} m" in message
     details = error["details"]
@@ -94,14 +92,12 @@ def test_unreachable_message_is_one_line_with_a_reach_hint(capsys):
 
 
 def test_max_reach_bounds_the_reachable_positions():
-    from armctl.cli.ik import max_reach
-
     arm = load_arm("so101")
-    reach = max_reach(arm)
+    reach = arm.reach(from_first_joint=True)
     rng = np.random.default_rng(3)
     origin = arm.fk(arm.middle(), arm.frame_names[0])[:3, 3]
     qs = arm.sample(rng, 500)
-    first = arm._jd[arm.chain()[0], [3, 7, 11]] + origin
+    first = arm.tree.joint_origin(arm.chain()[0])[:3, 3] + origin
     dists = np.linalg.norm(arm.fk_batch(qs)[:, :3, 3] - first, axis=1)
     assert dists.max() <= reach + 1e-9
     assert dists.max() > 0.8 * reach  # the bound is not loose

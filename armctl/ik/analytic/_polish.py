@@ -13,10 +13,13 @@ import math
 import numba as nb
 import numpy as np
 
+from armctl.ik.goals import GoalKind
 from armctl.kinematics._kernels import fk_jacobian_into
 
-#: Goal kinds.
-POSE, DIRECTION, POSITION = 0, 1, 2
+#: The goal kinds with a closed form, as the kernels see them (compile-time constants).
+POSE = int(GoalKind.POSE)
+DIRECTION = int(GoalKind.DIRECTION)
+POSITION = int(GoalKind.POSITION)
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")

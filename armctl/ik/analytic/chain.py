@@ -18,10 +18,9 @@ from armctl.config.schema import JointType
 from armctl.ik.analytic.errors import NoDecompositionError
 from armctl.kinematics.model import KinematicModel
 from armctl.spatial import transform_inverse
+from armctl.typing import Array
 
 __all__ = ["Chain", "chain_of", "screw"]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -96,18 +95,16 @@ def chain_of(model: KinematicModel, frame: str | None = None) -> Chain:
             raise NoDecompositionError(
                 f"joint {model.joint_names[j]!r} of arm {model.name!r} is prismatic; the "
                 "analytic solvers handle revolute chains only", "use solver 'dls' or 'nlp'")
-    jd = model._jd
+    tree = model.tree
     world: dict[int, Array] = {}
     h = np.empty((len(joints), 3))
     o = np.empty((len(joints), 3))
     for k, j in enumerate(joints):
         parent = model.parent_joint(j)
         t = np.eye(4) if parent < 0 else world[parent]
-        pre = np.eye(4)
-        pre[:3, :4] = jd[j, :12].reshape(3, 4)
-        t = t @ pre
+        t = t @ tree.joint_origin(j)
         world[j] = t
-        h[k] = t[:3, :3] @ jd[j, 12:15]
+        h[k] = t[:3, :3] @ tree.joint_axis(j)
         h[k] /= np.linalg.norm(h[k])
         o[k] = t[:3, 3]
     m = model.fk(np.zeros(model.dof), frame)

@@ -19,20 +19,12 @@ import numpy.typing as npt
 
 from armctl.ik.analytic.chain import Chain, chain_of
 from armctl.ik.analytic.errors import NoDecompositionError
+from armctl.ik.goals import GoalKind
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
-__all__ = ["Decomposition", "Family", "GoalKind", "Tolerances", "classify", "decomposition",
-           "describe"]
-
-Array = npt.NDArray[np.float64]
-
-
-class GoalKind(Enum):
-    """What the goal constrains."""
-
-    POSE = "pose"
-    DIRECTION = "position + direction"
-    POSITION = "position"
+__all__ = ["CLOSED_FORM_KINDS", "Decomposition", "Family", "GoalKind", "Tolerances", "classify",
+           "decomposition", "describe"]
 
 
 class Family(Enum):
@@ -49,6 +41,9 @@ class Family(Enum):
     POSITION_3R = "three joints place the tool point"
     GENERAL_6R = "general 6R: Raghavan-Roth elimination, 24 x 24 eigenvalue problem"
 
+
+#: The goal kinds that have closed forms, the richest first.
+CLOSED_FORM_KINDS = (GoalKind.POSE, GoalKind.DIRECTION, GoalKind.POSITION)
 
 #: Most joint triples tried for a position goal, in order (1, 2, 3), (1, 2, 4), ...: an arm
 #: of 7 joints has 35, while a long chain whose axes are parallel or meet would be searched
@@ -252,6 +247,9 @@ def _classify(model: KinematicModel, frame: str | None, kind: GoalKind,
     chain = chain_of(model, frame)
     n = chain.n
     hint = "use solver 'dls' or 'nlp' for this arm"
+    if kind not in CLOSED_FORM_KINDS:
+        raise NoDecompositionError(f"{kind.label} goals have no closed form here",
+                                   "use solver 'dls' or 'nlp'")
     if kind is GoalKind.POSITION:
         if n < 3:
             raise NoDecompositionError(f"arm {model.name!r} has {n} joints before its frame; "
@@ -332,10 +330,10 @@ def decomposition(model: KinematicModel, frame: str | None, kind: GoalKind) -> D
 
 def describe(model: KinematicModel, frame: str | None = None) -> str:
     """The analytic IK family of a frame for the richest goal type it supports, for display."""
-    for kind in (GoalKind.POSE, GoalKind.DIRECTION, GoalKind.POSITION):
+    for kind in CLOSED_FORM_KINDS:
         try:
             dec = decomposition(model, frame, kind)
         except NoDecompositionError:
             continue
-        return f"{dec.describe(model)} ({kind.value} goals)"
+        return f"{dec.describe(model)} ({kind.label} goals)"
     return "none (use a numerical solver)"

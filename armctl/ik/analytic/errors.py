@@ -13,9 +13,11 @@ class NoDecompositionError(InputError):
     Args:
         problem: What is missing, naming the arm.
         fix: What to do instead.
+
+    ``details``: ``problem`` and ``fix``.
     """
 
     def __init__(self, problem: str, fix: str):
-        super().__init__(f"{problem}; {fix}")
+        super().__init__(f"{problem}; {fix}", {"problem": problem, "fix": fix})
         self.problem = problem
         self.fix = fix

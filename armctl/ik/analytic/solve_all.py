@@ -10,24 +10,34 @@ import numpy.typing as npt
 from armctl.errors import InputError
 from armctl.ik.analytic import _families as F
 from armctl.ik.analytic._pipeline import GENERAL, PAIR, PARALLEL, SPHERICAL, pose6
-from armctl.ik.analytic._polish import DIRECTION, POSE, POSITION, assemble, inspect_pose
+from armctl.ik.analytic._polish import assemble, inspect_pose
 from armctl.ik.analytic._search import CAPACITY, one_pair
 from armctl.ik.analytic.chain import Chain, screw
-from armctl.ik.analytic.classify import Decomposition, Family, GoalKind, decomposition
+from armctl.ik.analytic.classify import (
+    CLOSED_FORM_KINDS,
+    Decomposition,
+    Family,
+    GoalKind,
+    decomposition,
+)
 from armctl.ik.analytic.errors import NoDecompositionError
-from armctl.ik.goals import DirectionGoal, Goal, PoseGoal, PositionGoal
+from armctl.ik.goals import Goal
 from armctl.kinematics.model import KinematicModel
 from armctl.spatial import orthonormalize, transform_inverse
+from armctl.typing import Array
 
-__all__ = ["ACCEPT", "IKSolutions", "Target", "acceptance", "as_target", "ik_all"]
+__all__ = ["ACCEPT", "CONTINUUM", "TWINS", "IKSolutions", "Target", "acceptance", "as_target",
+           "ik_all"]
 
-Array = npt.NDArray[np.float64]
 
 #: Largest position [m] and rotation [rad] error of a returned solution.
 ACCEPT = 1e-9
-#: Rows closer than this [rad]/[m] on every joint (modulo 2 pi for rotary ones) are the same.
-_SAME = 1e-6
-_KIND = {GoalKind.POSE: POSE, GoalKind.DIRECTION: DIRECTION, GoalKind.POSITION: POSITION}
+#: Rows closer than this on every joint (modulo 2 pi for rotary ones) are one solution:
+#: ([rad] for rotary joints, [m] for prismatic ones).
+TWINS = (1e-3, 1e-5)
+#: For a singular goal: its representatives closer than this on every joint are one row
+#: ([rad], [m]).
+CONTINUUM = (0.1, 1e-3)
 _CODE = {Family.SPHERICAL_WRIST: SPHERICAL, Family.SPHERICAL_SHOULDER: SPHERICAL,
          Family.THREE_PARALLEL: PARALLEL, Family.THREE_PARALLEL_OUTER: PARALLEL,
          Family.PAIR_SEARCH: PAIR, Family.PAIR_SEARCH_INVERTED: PAIR,
@@ -75,7 +85,8 @@ class IKSolutions:
         v = self.valid
         return v[0] if len(v) else None
 
-    def distinct(self, rotary: npt.ArrayLike) -> IKSolutions:
+    def distinct(self, rotary: npt.ArrayLike, tol: float | npt.ArrayLike | None = None
+                 ) -> IKSolutions:
         """One row per distinct solution, without the 2 pi variants.
 
         Rows equal modulo 2 pi on every rotary joint are variants of one solution (the same
@@ -85,14 +96,21 @@ class IKSolutions:
 
         Args:
             rotary: ``(dof,)`` mask of the rotary joints.
+            tol: Rows closer than this on every joint (modulo 2 pi for rotary ones) are one
+                solution [rad]/[m]; a scalar or ``(dof,)``. ``None``: :data:`TWINS` (rad, m),
+                or :data:`CONTINUUM` for a singular goal, whose representatives of the
+                continuum closer than that are near-duplicates.
         """
         rot = np.asarray(rotary, dtype=bool)
+        if tol is None:
+            rad, m = CONTINUUM if self.singular else TWINS
+            tol = np.where(rot, rad, m)
         reps: list[int] = []
         for i in range(len(self)):
             for c, r in enumerate(reps):
                 d = np.abs(self.q[i] - self.q[r])
                 d = np.where(rot, np.minimum(d % (2.0 * np.pi), (-d) % (2.0 * np.pi)), d)
-                if float(np.max(d, initial=0.0)) < _SAME:
+                if bool(np.all(d < tol)):
                     if self.within_limits[i] and not self.within_limits[r]:
                         reps[c] = i
                     break
@@ -147,21 +165,20 @@ def as_target(goal: Goal | npt.ArrayLike, frame: str | None = None) -> Target:
     if isinstance(goal, Goal):
         if frame is not None and goal.frame != frame:
             raise InputError(f"the goal names frame {goal.frame!r} but frame={frame!r} was given")
-        # writable C-contiguous copies: the kernels are compiled for one array type
-        if isinstance(goal, PoseGoal):
-            pose = np.array(goal.pose)
-            return Target(GoalKind.POSE, goal.frame, pose, pose[:3, 3].copy(), np.zeros(3),
-                          np.zeros(3))
-        if isinstance(goal, DirectionGoal):
-            return Target(GoalKind.DIRECTION, goal.frame, np.eye(4), np.array(goal.position),
-                          np.array(goal.direction), np.array(goal.axis))
-        if isinstance(goal, PositionGoal):
-            return Target(GoalKind.POSITION, goal.frame, np.eye(4), np.array(goal.position),
-                          np.zeros(3), np.zeros(3))
-        raise NoDecompositionError(
-            "the analytic solvers take pose, position + direction or position goals; an "
-            f"{type(goal).__name__} (orientation only) has no closed form here",
-            "use solver 'dls' or 'nlp'")
+        if goal.kind not in CLOSED_FORM_KINDS:
+            raise NoDecompositionError(
+                "the analytic solvers take pose, position + direction or position goals; "
+                f"{goal.label} goals ({type(goal).__name__}) have no closed form here",
+                "use solver 'dls' or 'nlp'")
+        # the packed targets (armctl.ik._residual), as writable C-contiguous copies: the kernels
+        # are compiled for one array type
+        row = goal.packed()
+        pose = np.eye(4)
+        if goal.kind is GoalKind.POSE:
+            pose[:3, :3] = row[3:12].reshape(3, 3)
+            pose[:3, 3] = row[0:3]
+        return Target(goal.kind, goal.frame, pose, row[0:3].copy(), row[12:15].copy(),
+                      row[15:18].copy())
     arr = np.array(goal, dtype=float)
     if arr.shape != (4, 4):
         raise InputError(f"a pose must be a finite 4x4 transform, got shape {arr.shape}")
@@ -284,16 +301,17 @@ def ik_all(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLi
 def _solve(model: KinematicModel, dec: Decomposition, goal: Target, ref: Array,
            tol: float) -> tuple[Array, npt.NDArray[np.bool_], Array, bool]:
     """Closed form, polish, variants and ordering for one reference configuration."""
+    tree = model.tree
     if goal.kind is GoalKind.POSE and not dec.free:  # the hot path: one compiled call
         code = _CODE[dec.family]
         c = dec.chain
         return pose6(code, dec.inverted, c.h, c.o, c.m, c.index, c.sign, dec.columns, dec.mask,
-                     ref, goal.pose, model._jd, model._fd, model._paths,
+                     ref, goal.pose, tree.joints, tree.frames, tree.paths,
                      model.frame_index(goal.frame), tol, model.lower, model.upper)
     raw = np.empty((CAPACITY, 7))
     n, singular, chain = _run(dec, goal, ref, raw)
     q, inside, errs, _ = assemble(raw, n, chain.index, chain.sign, dec.columns,
-                                  dec.mask, ref, _KIND[goal.kind], goal.pose, goal.position,
-                                  goal.direction, goal.axis, model._jd, model._fd, model._paths,
+                                  dec.mask, ref, int(goal.kind), goal.pose, goal.position,
+                                  goal.direction, goal.axis, tree.joints, tree.frames, tree.paths,
                                   model.frame_index(goal.frame), tol, model.lower, model.upper)
     return q, inside, errs, bool(singular)

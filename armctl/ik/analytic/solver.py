@@ -69,4 +69,4 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: npt.NDArray[np.flo
     if note:
         msg = f"{msg}; {note}"
     return finish(model, goals, q, solver="analytic", status=status, iterations=0, restarts=0,
-                  started=started, message=msg)
+                  started=started, message=msg, start=q0)

@@ -1,4 +1,9 @@
-"""General goals for the NLP solver: the seed's planes, half-spaces and combinations, and keep-out.
+"""General goals for the NLP solver: planes, half-spaces, combinations, and keep-out.
+
+The lecture (L. Kavan, *Metody skeletální animace*, 2002) names planes, half-spaces and their
+combinations as the general goals that IK as non-linear programming admits (as do J. Zhao and
+N. I. Badler, *Inverse Kinematics Positioning Using Nonlinear Programming for Highly Articulated
+Figures*, ACM Transactions on Graphics, 1994).
 
 Every constraint is a frozen dataclass that is either *hard* (``weight=None``: success requires
 it to hold within ``tolerance``) or *soft* (``weight`` > 0: its squared violation is added to
@@ -18,11 +23,11 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-import numpy.typing as npt
 
 from armctl.errors import InputError
 from armctl.ik.goals import as_unit3, as_vec3
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = [
     "AxisInCone",
@@ -35,7 +40,6 @@ __all__ = [
     "Segment",
 ]
 
-Array = npt.NDArray[np.float64]
 
 #: A capsule in the base frame: its ends ``a``, ``b`` as CasADi expressions, its radius and its
 #: (constant) length [m].

@@ -7,6 +7,7 @@ Example::
       - {type: position, frame: left_tip, position: [0.2, 0.3, 0.4], weight: 2}
       - {type: direction, position: [0.4, 0, 0.2], direction: [0, 0, -1], axis: [0, 0, 1]}
       - {type: orientation, rpy: [0, 90 deg, 0], tolerance: {rotation: 1e-3}}
+      - {type: look_at, frame: camera, point: [0.5, 0, 0], axis: [0, 0, 1]}
     constraints:
       - {type: plane, point: [0, 0, 0.2], normal: [0, 0, 1]}          # hard (no weight)
       - {type: halfspace, point: [0, 0, 0.05], normal: [0, 0, 1], weight: 10}
@@ -18,28 +19,24 @@ Example::
       - {type: keep_out_box, lower: [0.2, -0.1, 0], upper: [0.4, 0.1, 0.15], link_radius: 0.04}
 
 Positions in [m]; angles in [rad] or as strings such as ``"20 deg"``. A constraint without a
-``weight`` is hard. Errors name the file, the key path and the line.
+``weight`` is hard. Errors name the file, the key path and the line. Each goal type reads and
+writes its own keys (:meth:`armctl.ik.goals.Goal.from_file`, ``file_fields``); its ``type`` is
+the class's ``file_type``. :func:`format_goals` writes goals back as YAML.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
 import numpy as np
+import yaml
 
 from armctl.config.source import Document, Section, load_yaml, parse_yaml
 from armctl.errors import ConfigError, InputError
-from armctl.ik.goals import (
-    DirectionGoal,
-    Goal,
-    OrientationGoal,
-    PoseGoal,
-    PositionGoal,
-    Tolerance,
-)
+from armctl.ik.goals import Goal, Tolerance, goal_classes
 from armctl.ik.nlp.constraints import (
     AxisInCone,
     Constraint,
@@ -50,18 +47,11 @@ from armctl.ik.nlp.constraints import (
     OnPlane,
 )
 from armctl.ik.nlp.keep_out import KeepOutBox, KeepOutSphere
-from armctl.spatial import make_transform, rpy_to_matrix
 
-__all__ = ["GoalsFile", "load_goals", "parse_goals", "parse_goals_text"]
+__all__ = ["GoalsFile", "format_goals", "load_goals", "parse_goals", "parse_goals_text"]
 
 T = TypeVar("T")
 
-_GOAL_KEYS = {
-    "pose": (["position", "rpy"], []),
-    "position": (["position"], []),
-    "orientation": (["rpy"], []),
-    "direction": (["position", "direction"], ["axis"]),
-}
 _COMMON_GOAL = ["type", "frame", "weight", "tolerance"]
 _CONSTRAINT_KEYS: dict[str, tuple[list[str], list[str]]] = {
     "plane": (["point", "normal"], []),
@@ -140,25 +130,37 @@ def _tolerance(sec: Section) -> Tolerance:
 
 
 def _goal(sec: Section) -> Goal:
-    kind = sec.choice("type", str, list(_GOAL_KEYS))
-    req, opt = _GOAL_KEYS[kind]
-    sec.check_keys(["type", *req], [k for k in _COMMON_GOAL if k != "type"] + opt)
+    types = {cls.file_type: cls for cls in goal_classes()}
+    kind = sec.choice("type", str, list(types))
+    cls = types[kind]
+    req, opt = cls.file_keys
+    sec.check_keys(["type", *req], [k for k in _COMMON_GOAL if k != "type"] + list(opt))
     frame = sec.string("frame", required=False) or None
     weight = sec.number("weight", 1.0, positive=True)
-    tol = _tolerance(sec)
-    if kind == "pose":
-        rot = rpy_to_matrix(sec.vector("rpy", 3, angle=True))
-        return PoseGoal(make_transform(rot, sec.vector("position", 3)), frame=frame,
-                        weight=weight, tolerance=tol)
-    if kind == "position":
-        return PositionGoal(np.array(sec.vector("position", 3)), frame=frame, weight=weight,
-                            tolerance=tol)
-    if kind == "orientation":
-        return OrientationGoal(rpy_to_matrix(sec.vector("rpy", 3, angle=True)), frame=frame,
-                               weight=weight, tolerance=tol)
-    axis = sec.vector("axis", 3, (0.0, 0.0, 1.0))
-    return DirectionGoal(np.array(sec.vector("position", 3)), np.array(sec.vector("direction", 3)),
-                         np.array(axis), frame=frame, weight=weight, tolerance=tol)
+    return cls.from_file(sec, frame=frame, weight=weight, tolerance=_tolerance(sec))
+
+
+def format_goals(goals: Sequence[Goal]) -> str:
+    """Goals as goals-file YAML (the ``goals:`` list; constraints are not written).
+
+    Frames, weights and tolerances are written when they differ from the defaults; angles in
+    [rad]. :func:`parse_goals_text` reads the text back to equal goals (up to round-off).
+    """
+    default = Tolerance()
+    lines = ["goals:"]
+    for goal in goals:
+        entry: dict[str, object] = {"type": goal.file_type}
+        if goal.frame is not None:
+            entry["frame"] = goal.frame
+        entry.update(goal.file_fields())
+        if goal.weight != 1.0:
+            entry["weight"] = float(goal.weight)
+        if goal.tolerance != default:
+            entry["tolerance"] = {"position": float(goal.tolerance.position),
+                                  "rotation": float(goal.tolerance.rotation)}
+        lines.append("  - " + yaml.safe_dump(entry, default_flow_style=True, sort_keys=False,
+                                             width=10**6).strip())
+    return "\n".join(lines) + "\n"
 
 
 def _constraint(sec: Section) -> Constraint:

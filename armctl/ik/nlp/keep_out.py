@@ -15,7 +15,7 @@ import numpy as np
 
 from armctl.errors import InputError
 from armctl.ik.goals import as_vec3
-from armctl.ik.nlp.constraints import Array, Constraint, Segment, _positive
+from armctl.ik.nlp.constraints import Constraint, Segment, _positive
 from armctl.kinematics.capsules import (
     arm_capsules,
     segment_box_distance,
@@ -23,6 +23,7 @@ from armctl.kinematics.capsules import (
     world_segments,
 )
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = ["KeepOutBox", "KeepOutSphere"]
 

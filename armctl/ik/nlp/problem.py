@@ -6,9 +6,10 @@ The cost is a sum of squared residuals::
 
 with position residuals divided by the arm's reach ``L`` and orientation residuals written as
 ``(rho / L) (R - R_target)`` (Frobenius form: smooth everywhere, zero only at the target, no
-wrap-around), subject to the joint limits and the hard constraints' rows. The Hessian handed to
-the solver is the Gauss-Newton one, ``2 J^T J`` (positive semi-definite, exact at a reached
-goal), plus the exact Hessian of the constraint rows.
+wrap-around); each goal type writes its own (:meth:`armctl.ik.goals.Goal.nlp_residual`),
+subject to the joint limits and the hard constraints' rows. The Hessian handed to the solver is
+the Gauss-Newton one, ``2 J^T J`` (positive semi-definite, exact at a reached goal), plus the
+exact Hessian of the constraint rows.
 
 Everything that changes between solves (targets, weights, constraint numbers, ``q_ref``,
 ``lambda``) is a parameter, so a new target reuses the built solver; :func:`build_count` counts
@@ -23,18 +24,17 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 from armctl.errors import InputError
-from armctl.ik.goals import DirectionGoal, Goal, OrientationGoal, PoseGoal, PositionGoal
+from armctl.ik.goals import Goal
 from armctl.ik.nlp.constraints import AxisInCone, Constraint, Segment
 from armctl.ik.nlp.options import Method, NLPOptions
 from armctl.kinematics.capsules import arm_capsules
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
-__all__ = ["Attempt", "Problem", "build_count", "clear_cache", "get_problem", "reach"]
+__all__ = ["Attempt", "Problem", "build_count", "clear_cache", "get_problem"]
 
-Array = npt.NDArray[np.float64]
 
 _BUILDS = 0
 #: Iteration cap of the warm-start instance without hard constraints: near the answer it needs
@@ -54,31 +54,9 @@ def clear_cache() -> None:
     _CACHE.clear()
 
 
-def reach(model: KinematicModel) -> float:
-    """The arm's reach scale: the longest sum of link offsets from the base to a frame [m]."""
-    best = 0.0
-    for f in range(len(model.frame_names)):
-        total = float(np.linalg.norm(model._fd[f].reshape(3, 4)[:, 3]))
-        for j in model._paths[f]:
-            if j < 0:
-                break
-            total += float(np.linalg.norm(model._jd[j, :12].reshape(3, 4)[:, 3]))
-        best = max(best, total)
-    return max(best, 1e-3)
-
-
 def _goal_params(goal: Goal) -> Array:
-    w = [goal.weight]
-    if isinstance(goal, PoseGoal):
-        return np.concatenate([goal.position, goal.rotation.ravel(order="F"), w])
-    if isinstance(goal, PositionGoal):
-        return np.concatenate([goal.position, w])
-    if isinstance(goal, OrientationGoal):
-        return np.concatenate([goal.rotation.ravel(order="F"), w])
-    if isinstance(goal, DirectionGoal):
-        return np.concatenate([goal.position, goal.direction, goal.axis, w])
-    raise InputError(f"the nlp solver does not know the goal type {type(goal).__name__}; use "
-                     "PositionGoal, OrientationGoal, DirectionGoal or PoseGoal")
+    """The goal's NLP parameters (:meth:`Goal.nlp_params`) followed by its weight."""
+    return np.concatenate([goal.nlp_params(), [goal.weight]])
 
 
 def structure_key(model: KinematicModel, goals: Sequence[Goal],
@@ -126,7 +104,7 @@ class Problem:
 
         self.model = model
         self.method = method = _method(options, constraints)
-        self.length = reach(model)
+        self.length = model.tree.max_reach
         rho = options.orientation_scale or 0.3 * self.length
         sizes = [len(_goal_params(g)) for g in goals] + [len(c.params()) + (0 if c.hard else 1)
                                                          for c in constraints]
@@ -144,15 +122,8 @@ class Problem:
             at += size
             rot, pos = sym.frame(goal.frame)
             sw = ca.sqrt(gp[size - 1])
-            if isinstance(goal, PoseGoal):
-                r = ca.vertcat((pos - gp[0:3]) * inv_len,
-                               rot_scale * ca.vec(rot - ca.reshape(gp[3:12], 3, 3)))
-            elif isinstance(goal, PositionGoal):
-                r = (pos - gp[0:3]) * inv_len
-            elif isinstance(goal, OrientationGoal):
-                r = rot_scale * ca.vec(rot - ca.reshape(gp[0:9], 3, 3))
-            else:  # DirectionGoal
-                r = ca.vertcat((pos - gp[0:3]) * inv_len, rot_scale * (rot @ gp[6:9] - gp[3:6]))
+            r = goal.nlp_residual(ca, rot, pos, gp[0:size - 1], position_scale=inv_len,
+                                  rotation_scale=rot_scale)
             residuals.append(sw * r)
         by_radius: dict[float | None, list[Segment]] = {}
 

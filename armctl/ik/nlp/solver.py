@@ -27,7 +27,6 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 from armctl.errors import ArmctlError, InputError
 from armctl.ik.goals import Goal
@@ -37,10 +36,10 @@ from armctl.ik.nlp.problem import Problem, get_problem
 from armctl.ik.options import IKOptions
 from armctl.ik.result import IKResult, IKStatus, evaluate, finish
 from armctl.kinematics.model import KinematicModel
+from armctl.typing import Array
 
 __all__ = ["check_constraints", "solve"]
 
-Array = npt.NDArray[np.float64]
 
 #: Attempts in a row that end locally infeasible before the solve gives up as infeasible.
 _INFEASIBLE_STREAK = 4
@@ -92,9 +91,13 @@ def _seeds(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: N
     """
     yield "start", q0
     if options.seed_solver:
-        from armctl.ik.registry import available_solvers, get_solver
+        from armctl.ik.registry import get_solver, solver_infos
 
-        if options.seed_solver in available_solvers() and options.seed_solver != "nlp":
+        # a registered solver without constraints (not an NLP itself) that solves these goals
+        seeder = next((i.capabilities for i in solver_infos() if i.name == options.seed_solver),
+                      None)
+        if (seeder is not None and not seeder.hard_constraints
+                and all(seeder.solves(g.kind) for g in goals)):
             budget = IKOptions(time_limit=max(options.time_limit / 20, 1e-3), restarts=0,
                                seed=options.seed)
             t0 = time.perf_counter()
@@ -190,7 +193,8 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     best_q = model.wrap_toward(best_q, q0)  # the same pose, rotary joints nearest the start
     return finish(model, goals, best_q, solver="nlp", status=status, iterations=iterations,
                   restarts=max(attempts - 1, 0), started=started, constraints=cons,
-                  message=f"{problem.method.value}, {attempts} attempt(s)")
+                  message=f"{problem.method.value}, {attempts} attempt(s)", start=q0,
+                  search=True)
 
 
 def _attempt(problem: Problem, model: KinematicModel, goals: tuple[Goal, ...],

@@ -64,8 +64,8 @@ def _newton(arm: Arm, goal: np.ndarray, rng: np.random.Generator,
     seen: list[np.ndarray] = []
     for seed in arm.sample(rng, starts):
         s = seed.copy()
-        ep, er = polish(s, cols, POSE, goal, goal[:3, 3].copy(), z, z, arm._jd, arm._fd,
-                        arm._paths, f, 60)
+        ep, er = polish(s, cols, POSE, goal, goal[:3, 3].copy(), z, z, arm.tree.joints,
+                        arm.tree.frames, arm.tree.paths, f, 60)
         if ep <= TOL and er <= TOL and not (seen and _has(np.array(seen), s)):
             seen.append(s)
     return seen
@@ -160,8 +160,8 @@ def test_the_published_sixteen_solution_example(row: int) -> None:
     goal = arm.fk(np.radians(MANOCHA_CANNY_SOLUTIONS[row]))
     q, _, errs, _ = pose6(GENERAL, False, c.h, c.o, c.m, c.index, c.sign,
                           np.arange(6, dtype=np.int64), np.ones(6, dtype=np.bool_), np.zeros(6),
-                          goal, arm._jd, arm._fd, arm._paths, arm.frame_index(None), TOL,
-                          arm.lower, arm.upper)
+                          goal, arm.tree.joints, arm.tree.frames, arm.tree.paths,
+                          arm.frame_index(None), TOL, arm.lower, arm.upper)
     assert errs.max() <= TOL
     assert len(_distinct(q)) == 16  # rows: also the +-pi variants of a joint at pi
     _exact(arm, goal, q)

@@ -76,8 +76,8 @@ def test_against_a_dense_multistart_newton_search() -> None:
         seen: list[np.ndarray] = []
         for seed in arm.sample(rng, 300):  # Gauss-Newton from 300 random starts
             s = seed.copy()
-            ep, er = polish(s, cols, POSE, goal, goal[:3, 3].copy(), z, z, arm._jd, arm._fd,
-                            arm._paths, f, 60)
+            ep, er = polish(s, cols, POSE, goal, goal[:3, 3].copy(), z, z, arm.tree.joints,
+                            arm.tree.frames, arm.tree.paths, f, 60)
             if ep <= TOL and er <= TOL and all(_wrapped(s - o).max() > 1e-6 for o in seen):
                 seen.append(s)
         for s in seen:
