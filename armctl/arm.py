@@ -45,8 +45,8 @@ class Arm(KinematicModel):
 
         Args:
             goal: A ``(4, 4)`` tool pose, a goal object (:class:`armctl.ik.PositionGoal`,
-                ``OrientationGoal``, ``DirectionGoal``, ``PoseGoal``), or a sequence of them for
-                several frames at once.
+                ``OrientationGoal``, ``DirectionGoal``, ``PoseGoal``, ``LookAtGoal``), or a
+                sequence of them for several frames at once.
             q0: Starting joint vector [rad]/[m]; the middle of the joint ranges when ``None``.
             solver: Solver name, see :func:`armctl.ik.available_solvers`.
             options: Iteration and time budgets, restarts and RNG seed.
@@ -56,6 +56,10 @@ class Arm(KinematicModel):
             The result. ``result.success`` is True only if every goal is met within tolerance
             and ``result.q`` is inside the joint limits; otherwise ``result.q`` is the closest
             configuration found and ``result.status`` says why.
+
+        Raises:
+            UnsupportedGoalError: For goals or constraints the solver cannot take (its
+                capabilities, :func:`armctl.ik.solver_info`); the message names those that can.
         """
         from armctl.ik import solve
 

@@ -1,7 +1,10 @@
 """The armctl exception tree: every error armctl raises derives from :class:`ArmctlError`.
 
-Each class carries the data that explains it as attributes, builds a message that says what went
-wrong, where, and how to fix it, and has an ``exit_code`` that the command-line interface returns.
+Each class builds a message that says what went wrong, where, and how to fix it, carries the same
+facts as data in :attr:`ArmctlError.details` (JSON-safe; the command line prints them with
+``--json``), and has an ``exit_code`` that the command-line interface returns. Every constructor
+passes its message and details to ``ArmctlError.__init__(message, details)``; a subclass that
+extends its parent's details adds keys to ``self.details`` after the parent's constructor.
 
 Exit codes (also documented in ``docs/cli.md``):
 
@@ -16,14 +19,21 @@ Exit codes (also documented in ``docs/cli.md``):
   way (128 + the signal number); a signal after a stopped motion does not change its code 5.
 
 Subpackages define their specialised errors next to their code (for example
-``armctl.servo.errors``), always as subclasses of the classes below.
+``armctl.servo.errors``), always as subclasses of the classes below. The one exception outside
+the tree is :class:`armctl.robot.errors.SignalInterrupt`, a :class:`KeyboardInterrupt` on
+purpose: SIGTERM and SIGHUP end a command the way Ctrl-C does, past ``except Exception``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
+from enum import Enum
+from pathlib import Path, PurePath
+from typing import Any
+
+import numpy as np
 
 __all__ = [
     "ArmctlError",
@@ -36,13 +46,61 @@ __all__ = [
     "NoSolutionError",
     "PlanningError",
     "UnknownNameError",
+    "json_safe",
 ]
 
 
+def json_safe(value: Any) -> Any:
+    """``value`` as JSON holds it: dicts with string keys, lists, strings, numbers, ``None``.
+
+    NumPy arrays and tuples become lists, NumPy numbers Python numbers, enums their values, paths
+    strings; NaN becomes ``None`` and infinities ``"inf"``/``"-inf"`` (strict JSON has neither);
+    any other object its ``str``.
+    """
+    if value is None or isinstance(value, (str, bool)):
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        f = float(value)
+        return f if math.isfinite(f) else (None if math.isnan(f) else ("inf" if f > 0 else "-inf"))
+    if isinstance(value, Mapping):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return json_safe(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    if isinstance(value, Enum):
+        return json_safe(value.value)
+    if isinstance(value, PurePath):
+        return str(value)
+    return str(value)
+
+
 class ArmctlError(Exception):
-    """Root of every exception that armctl raises on purpose."""
+    """Root of every exception that armctl raises on purpose.
+
+    Args:
+        message: The whole message: what went wrong, where, and how to fix it.
+        details: The facts of the error as data (see :attr:`details`); converted by
+            :func:`json_safe`.
+
+    Attributes:
+        details: The facts of the error as data, for programs: string keys, JSON-safe values
+            (:func:`json_safe`), numbers in SI units ([m], [rad], [s]) unless the key says
+            otherwise. Each class documents its keys; empty when the message is all there is.
+            The command line prints it as ``error.details`` with ``--json``. Code that catches
+            an error may add a fact (e.g. ``limit_source``), JSON-safe.
+        exit_code: What the command line returns for it (see the module docstring).
+    """
 
     exit_code: int = 1
+
+    def __init__(self, message: str = "", details: Mapping[str, Any] | None = None):
+        super().__init__(message)
+        self.details: dict[str, Any] = json_safe(details) if details else {}
 
 
 @dataclass(frozen=True)
@@ -98,6 +156,9 @@ class ConfigError(InputError):
         problem: What is wrong, e.g. ``"lower limit 1.2 is greater than upper limit 0.5"``.
         where: Where it is: file, key path and line.
         fix: How to fix it, e.g. ``"swap the two values"``.
+
+    ``details``: ``problem``, ``file``, ``line``, ``key`` (the key path as text, e.g.
+    ``joints[2] (elbow).limits.upper``; ``None`` for the whole file) and ``fix``.
     """
 
     def __init__(self, problem: str, where: KeyPath | None = None, fix: str | None = None):
@@ -107,7 +168,10 @@ class ConfigError(InputError):
         text = f"{self.where.where()}: {problem}"
         if fix:
             text += f"\n  fix: {fix}"
-        super().__init__(text)
+        super().__init__(text, {"problem": problem, "file": self.where.file,
+                                "line": self.where.line,
+                                "key": self.where.dotted() if self.where.keys else None,
+                                "fix": fix})
 
 
 class UnknownNameError(InputError, KeyError):
@@ -120,6 +184,9 @@ class UnknownNameError(InputError, KeyError):
         name: The name that was asked for.
         valid: The names that do exist.
         context: Where the name was looked up, e.g. ``"arm 'so101'"``.
+
+    ``details``: ``kind``, ``name``, ``valid`` (every valid name), ``suggestion`` (the close
+    name, or ``None``) and ``context``.
     """
 
     def __init__(self, kind: str, name: str, valid: Sequence[str], context: str = ""):
@@ -141,7 +208,8 @@ class UnknownNameError(InputError, KeyError):
             shown += ", ..."
         text += f" Valid {kind} names: {shown}." if self.valid else f" (there are no {kind}s)"
         self.message = text
-        super().__init__(text)
+        super().__init__(text, {"kind": kind, "name": name, "valid": self.valid,
+                                "suggestion": close[0] if close else None, "context": context})
 
     def __str__(self) -> str:  # KeyError would otherwise quote the message
         return self.message
@@ -173,6 +241,9 @@ class JointLimitError(InputError):
         context: What was being done, e.g. ``"goal of move-joints"``.
         advice: Where the crossed limit comes from and how to fix it; the default advice is
             for a limit of the arm config.
+
+    ``details``: ``joint``, ``value``, ``lower``, ``upper`` (where the limit was enforced may
+    add ``limit_source``).
     """
 
     def __init__(self, joint: str, value: float, lower: float, upper: float, context: str = "",
@@ -181,13 +252,12 @@ class JointLimitError(InputError):
         self.value = value
         self.lower = lower
         self.upper = upper
-        self.details: dict[str, object] = {"joint": joint, "value": value, "lower": lower,
-                                           "upper": upper}
         what = f" ({context})" if context else ""
         advice = advice or "Choose a value inside the limits or widen them in the arm config."
         super().__init__(
             f"joint {joint!r}: {value:.6g} is outside its limits [{lower:.6g}, {upper:.6g}]{what};"
-            f" nothing was sent. {advice}"
+            f" nothing was sent. {advice}",
+            {"joint": joint, "value": value, "lower": lower, "upper": upper},
         )
 
 

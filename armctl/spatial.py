@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from armctl.typing import Array
+
 __all__ = [
     "axis_angle_to_matrix",
     "make_transform",
@@ -29,8 +31,6 @@ __all__ = [
     "slerp",
     "transform_inverse",
 ]
-
-Array = npt.NDArray[np.float64]
 
 
 def rpy_to_matrix(rpy: npt.ArrayLike) -> Array:

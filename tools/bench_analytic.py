@@ -145,10 +145,11 @@ def bench_pose_arm(label: str, arm: Arm, goals: int, rng: np.random.Generator) -
     code = SPHERICAL if "SPHERICAL" in dec.family.name else PARALLEL
     ref = arm.middle()
     f = arm.frame_index(None)
+    jd, fd, paths = arm.tree.joints, arm.tree.frames, arm.tree.paths
 
     def kernel(g: np.ndarray) -> object:
         return pose6(code, dec.inverted, c.h, c.o, c.m, c.index, c.sign, dec.columns, dec.mask,
-                     ref, g, arm._jd, arm._fd, arm._paths, f, 1e-9, arm.lower, arm.upper)
+                     ref, g, jd, fd, paths, f, 1e-9, arm.lower, arm.upper)
 
     rows.append(f"| {label} | armctl compiled core (`pose6`, no Python wrapper) | "
                 f"{per_call(cycle(kernel), goals):.1f} | same | same |")
@@ -195,10 +196,11 @@ def general_kernel(a: Arm) -> Callable[[np.ndarray], Any]:
     c = chain_of(a)
     cols, mask, ref = np.arange(6, dtype=np.int64), np.ones(6, dtype=np.bool_), a.middle()
     f = a.frame_index(None)
+    jd, fd, paths = a.tree.joints, a.tree.frames, a.tree.paths
 
     def kernel(g: np.ndarray) -> Any:
         return pose6(GENERAL, False, c.h, c.o, c.m, c.index, c.sign, cols, mask, ref, g,
-                     a._jd, a._fd, a._paths, f, 1e-9, a.lower, a.upper)
+                     jd, fd, paths, f, 1e-9, a.lower, a.upper)
 
     return kernel
 

@@ -67,12 +67,6 @@ def chain_of(arm: Arm) -> tuple[list[int], int]:
     return list(arm.chain()), arm.frame_index(None)
 
 
-def _t(row: np.ndarray) -> np.ndarray:
-    t = np.eye(4)
-    t[:3, :4] = row[:12].reshape(3, 4)
-    return t
-
-
 def _align(axis: np.ndarray) -> np.ndarray:
     """A rotation taking z onto ``axis``."""
     z = np.array([0.0, 0.0, 1.0])
@@ -92,9 +86,8 @@ def rtb_solver(arm: Arm) -> Callable[[np.ndarray, np.ndarray, float], tuple[np.n
     joints, f = chain_of(arm)
     ets = rtb.ETS()
     for j in joints:
-        row = arm._jd[j]
-        axis = row[12:15]
-        ets *= rtb.ET.SE3(_t(row))
+        axis = arm.tree.joint_axis(j)
+        ets *= rtb.ET.SE3(arm.tree.joint_origin(j))
         qlim = [arm.lower[j], arm.upper[j]]
         canon = {(1, 0, 0): rtb.ET.Rx, (0, 1, 0): rtb.ET.Ry, (0, 0, 1): rtb.ET.Rz}
         key = tuple(round(a) for a in axis)
@@ -104,7 +97,7 @@ def rtb_solver(arm: Arm) -> Callable[[np.ndarray, np.ndarray, float], tuple[np.n
             r = np.eye(4)
             r[:3, :3] = _align(axis)
             ets *= rtb.ET.SE3(r) * rtb.ET.Rz(qlim=qlim) * rtb.ET.SE3(np.linalg.inv(r))
-    ets *= rtb.ET.SE3(_t(arm._fd[f]))
+    ets *= rtb.ET.SE3(arm.tree.frame_offset(f))
 
     def solve(goal: np.ndarray, q0: np.ndarray, tol: float) -> tuple[np.ndarray, bool]:
         sol = ets.ik_LM(goal, q0=q0[joints], ilimit=30, slimit=100, tol=tol, joint_limits=True)
@@ -123,11 +116,11 @@ def ikpy_solver(arm: Arm) -> Callable[[np.ndarray, np.ndarray, float], tuple[np.
     joints, f = chain_of(arm)
     links = [OriginLink()]
     for j in joints:
-        row = arm._jd[j]
-        t = _t(row)
+        t = arm.tree.joint_origin(j)
         links.append(URDFLink(arm.joint_names[j], t[:3, 3], matrix_to_rpy(t[:3, :3]),
-                              rotation=row[12:15], bounds=(arm.lower[j], arm.upper[j])))
-    t = _t(arm._fd[f])
+                              rotation=arm.tree.joint_axis(j),
+                              bounds=(arm.lower[j], arm.upper[j])))
+    t = arm.tree.frame_offset(f)
     links.append(URDFLink("tool", t[:3, 3], matrix_to_rpy(t[:3, :3]), joint_type="fixed"))
     chain = Chain(links, active_links_mask=[False] + [True] * len(joints) + [False])
 
@@ -151,11 +144,10 @@ def pinocchio_solver(arm: Arm, seed: int = 0) -> Callable[[np.ndarray, np.ndarra
     model = pin.Model()
     parent = 0
     for j in joints:
-        row = arm._jd[j]
-        t = _t(row)
-        parent = model.addJoint(parent, pin.JointModelRevoluteUnaligned(row[12:15]),
+        t = arm.tree.joint_origin(j)
+        parent = model.addJoint(parent, pin.JointModelRevoluteUnaligned(arm.tree.joint_axis(j)),
                                 pin.SE3(t[:3, :3], t[:3, 3]), arm.joint_names[j])
-    t = _t(arm._fd[f])
+    t = arm.tree.frame_offset(f)
     fid = model.addFrame(pin.Frame("tool", parent, pin.SE3(t[:3, :3], t[:3, 3]),
                                    pin.FrameType.OP_FRAME))
     lo, hi = arm.lower[joints], arm.upper[joints]

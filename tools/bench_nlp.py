@@ -67,7 +67,10 @@ def _slsqp(arm: Arm, target: np.ndarray, q0: np.ndarray) -> np.ndarray:
 
 
 class _Plain:
-    """The seed's plain formulation: min |p - p_t|^2 + |R - R_t|_F^2, IPOPT defaults."""
+    """The plain formulation of the lecture (L. Kavan, *Metody skeletální animace*, 2002).
+
+    min |p - p_t|^2 + |R - R_t|_F^2 within the limits, IPOPT defaults.
+    """
 
     def __init__(self, arm: Arm):
         import casadi as ca
@@ -201,7 +204,8 @@ def main(argv: list[str] | None = None) -> int:
         "1e-4 rad by FK, inside the limits. NLP: default `NLPOptions` (0.2 s budget; without "
         "hard constraints `Method.AUTO` runs `sqpmethod`; restarts seeded by `dls`, then "
         "random). NLP without seed: the same with `seed_solver=\"\"` (the start, then random "
-        "restarts only). Plain: the seed's formulation as is, `|p - p_t|^2 + |R - R_t|_F^2` "
+        "restarts only). Plain: the formulation of the lecture (L. Kavan, *Metody skeletální "
+        "animace*, 2002) as is, `|p - p_t|^2 + |R - R_t|_F^2` "
         "within the limits, CasADi + IPOPT with default options (exact Hessian), one start. "
         "SLSQP: one start, the same scaled pose cost, bounds. Streaming: the "
         "target follows a random walk of 0.01 rad per joint and step, each solve warm-started "

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 
 from armctl import __version__
 from armctl.cli._common import print_error
+from armctl.cli._parser import ArgumentParser
 from armctl.errors import ArmctlError
 
 if TYPE_CHECKING:
@@ -43,14 +44,14 @@ def _command_modules() -> list[ModuleType]:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every command."""
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="armctl",
         description="Control robot arms built from serial-bus smart servos. CONFIG is an arm "
         "YAML file, a URDF, or the name of a bundled arm (see 'armctl arms').",
         epilog="Exit codes: 0 ok, 1 internal error, 2 bad input, 3 no solution, 4 bus or "
-        "hardware error, 5 motion stopped for safety (a fault, or Ctrl-C/SIGTERM/SIGHUP during "
-        "a motion), 130/143/129 interrupted by SIGINT/SIGTERM/SIGHUP while no motion was under "
-        "way.",
+        "hardware error, 5 motion stopped for safety (a fault, or Ctrl-C/SIGTERM/SIGHUP once "
+        "the arm has moved in the command: it holds, the exit policy is not applied), "
+        "130/143/129 interrupted by SIGINT/SIGTERM/SIGHUP before anything moved.",
     )
     parser.add_argument("--version", action="version", version=f"armctl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -106,11 +107,36 @@ def _setup_logging() -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line (see :func:`_main`).
+
+    A Ctrl-C (or SIGTERM, SIGHUP) that arrives before the command has taken charge of signals,
+    while the modules are imported or the arguments parsed, ends it with 128 + the signal's
+    number and "interrupted by SIGINT; nothing moved", never a traceback.
+
+    Args:
+        argv: Arguments without the program name; ``sys.argv[1:]`` when ``None``.
+
+    Returns:
+        The exit code.
+    """
+    try:
+        return _main(argv)
+    except KeyboardInterrupt as exc:
+        signum = int(getattr(exc, "signum", signal.SIGINT))
+        words = list(sys.argv[1:] if argv is None else argv)
+        command = next((w for w in words if not w.startswith("-")), None)
+        _print_interrupt(argparse.Namespace(json="--json" in words, command=command),
+                         signal.Signals(signum).name, 128 + signum, True)
+        return 128 + signum
+
+
+def _main(argv: Sequence[str] | None = None) -> int:
     """Run the command line.
 
     Commands that move the arm set ``stop_signals``: for them SIGINT, SIGTERM and SIGHUP are
-    guarded for the whole command (:class:`armctl.robot.SignalGuard`), so that a signal after a
-    stopped motion cannot replace its exit code.
+    guarded for the whole command (:class:`armctl.robot.SignalGuard`). A signal gives 128 + its
+    number only while nothing has moved; once a motion has run it gives 5 (the arm holds, the
+    exit policy is not applied), and a signal after a stopped motion cannot replace its code.
 
     Args:
         argv: Arguments without the program name; ``sys.argv[1:]`` when ``None``.
@@ -136,15 +162,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.signal_guard = guard
     with guard.installed():
         code = _dispatch(args, guard)
-        if guard.signum is not None:
-            name = signal_name(guard.signum)
-            if code == 0:  # the motion had finished; the exit policy was skipped
+        signum = guard.signum if guard.signum is not None else guard.stopped_by
+        if code == 0 and signum is not None:  # the command ended normally, then a signal
+            name = signal_name(signum)
+            if guard.moved:  # the arm has moved: it holds; the exit policy was skipped
                 print(f"armctl: {name} after the motion had finished: the arm holds where it "
-                      "is", file=sys.stderr)
-                code = 128 + guard.signum
-            else:
-                print(f"armctl: {name} received while finishing: ignored (the arm holds)",
-                      file=sys.stderr)
+                      "is (exit policy not applied)", file=sys.stderr)
+                code = 5
+            else:  # its report is out already (a dry run): stderr only
+                print(f"armctl: interrupted by {name}; nothing moved", file=sys.stderr)
+                code = 128 + signum
+        elif guard.signum is not None:
+            print(f"armctl: {signal_name(guard.signum)} received while finishing: ignored "
+                  "(the arm holds)", file=sys.stderr)
     return code
 
 

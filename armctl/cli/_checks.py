@@ -17,8 +17,8 @@ if TYPE_CHECKING:
     from armctl.ik import Goal
     from armctl.motion import KeyframeProgram, PlaybackOptions
 
-__all__ = ["check_goal_reach", "check_keyframe_path", "check_named_pose", "check_play",
-           "check_solver", "check_speed_arg", "check_teach_output"]
+__all__ = ["check_goal_reach", "check_keyframe_path", "check_named_pose", "check_park_pose",
+           "check_play", "check_solver", "check_speed_arg", "check_teach_output"]
 
 
 def check_speed_arg(args: argparse.Namespace, arm: Arm) -> None:
@@ -61,29 +61,13 @@ def check_goal_reach(arm: Arm, goal: Goal, solver: str = "auto") -> None:
         IKFailedError: Giving the distance, the reach and the closest configuration found
             (``details`` as for a goal found unreachable after the bus opened).
     """
-    import numpy as np
-
     from armctl.cli.ik import reach_hint
-    from armctl.ik import PositionGoal
-    from armctl.ik.errors import IKFailedError
+    from armctl.robot.unreachable import unreachable
 
     hint = reach_hint(arm, goal)
     if not hint:
         return
-    res = arm.ik(goal, solver=solver)
-    advice = "Check the goal is inside the arm's reach"
-    if not isinstance(goal, PositionGoal):
-        advice += ", or give fewer orientation constraints"
-    details = {"status": res.status.value, "solver": res.solver,
-               "closest_q": np.asarray(res.q, dtype=float),
-               "closest_joints": arm.values_by_name(res.q),
-               "position_error": res.position_error, "rotation_error": res.rotation_error,
-               "closest_xyz": arm.fk(res.q, goal.frame)[:3, 3]}
-    raise IKFailedError(
-        res, f"the goal cannot be reached: {hint}; closest found is "
-        f"{res.position_error * 1000:.1f} mm and {np.degrees(res.rotation_error):.1f} deg away "
-        f"(solver {res.solver}); nothing was moved (the bus was not opened). {advice}.",
-        details)
+    raise unreachable(arm, goal, arm.ik(goal, solver=solver), hint, bus_opened=False)
 
 
 def check_keyframe_path(path: str) -> None:
@@ -113,6 +97,21 @@ def check_named_pose(arm: Arm, name: str) -> None:
         JointLimitError: For a pose value outside its joint's limits.
     """
     arm.check_limits(arm.named_pose(name), f"the config's {name!r} pose")
+
+
+def check_park_pose(arm: Arm) -> None:
+    """Refuse ``--exit-policy park`` for an arm without a 'park' pose inside the config's limits.
+
+    Raises:
+        InputError: The config defines no 'park' pose (saying how to add one).
+        JointLimitError: A value of the pose outside its joint's limits.
+    """
+    if "park" not in arm.spec.poses:
+        known = ", ".join(arm.spec.poses) or "none"
+        raise InputError(f"--exit-policy park: arm {arm.name!r} has no 'park' pose (poses: "
+                         f"{known}); add one under 'poses:' in the arm config, or use "
+                         "--exit-policy hold or release")
+    check_named_pose(arm, "park")
 
 
 def check_play(args: argparse.Namespace, arm: Arm, program: KeyframeProgram,
@@ -157,14 +156,13 @@ def check_teach_output(args: argparse.Namespace, arm: Arm) -> None:
         InputError: For an existing file without ``--force`` or ``--append``, an arm config as
             the output, a missing folder; with ``--append``, a file of another arm (ConfigError).
     """
-    from armctl.motion import load_keyframes
-    from armctl.robot.teach import ExistingFile, appendable, check_output
+    from armctl.robot.teach import ExistingFile, appendable, check_output, load_for_append
 
     existing = (ExistingFile.APPEND if args.append else
                 ExistingFile.OVERWRITE if args.force else ExistingFile.REFUSE)
     path = check_output(args.output, existing)
     if existing is ExistingFile.APPEND and path.exists():
-        appendable(load_keyframes(path, arm), arm, path)  # the calibration: once the bus is open
+        appendable(load_for_append(path, arm), arm, path)  # the calibration: once the bus is open
     if args.release:
         for name in args.release:
             arm.joint_index(name)

@@ -6,12 +6,12 @@ import argparse
 import json
 import math
 import sys
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-from armctl.errors import ArmctlError, InputError
+from armctl.errors import ArmctlError, InputError, json_safe
 
 if TYPE_CHECKING:
     from armctl.arm import Arm
@@ -36,6 +36,8 @@ __all__ = [
 
 JSON_SCHEMA = "armctl/1"
 
+_N = TypeVar("_N", int, float)
+
 #: A rotary value beyond this [rad] without ``--deg`` can only be meant in degrees.
 _FULL_TURN = 2.0 * math.pi
 
@@ -57,42 +59,48 @@ def finite(text: str) -> float:
     return value
 
 
-def positive(text: str) -> float:
-    """A finite number greater than zero (an argparse type)."""
-    value = finite(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be greater than zero")
-    return value
+def _whole(text: str) -> int:
+    """A whole number (for :func:`_at_least`).
 
-
-def nonnegative(text: str) -> float:
-    """A finite number, zero or more (an argparse type)."""
-    value = finite(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must not be negative")
-    return value
-
-
-def positive_int(text: str) -> int:
-    """A whole number, 1 or more (an argparse type)."""
+    Raises:
+        argparse.ArgumentTypeError: For text that is not a whole number.
+    """
     try:
-        value = int(text)
+        return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be 1 or more")
-    return value
 
 
-def nonnegative_int(text: str) -> int:
-    """A whole number, 0 or more (an argparse type)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must not be negative")
-    return value
+def _at_least(parse: Callable[[str], _N], low: _N, strict: bool, rule: str, name: str
+              ) -> Callable[[str], _N]:
+    """An argparse type: ``parse(text)``, refused unless above ``low`` (``strict``) or at least.
+
+    Args:
+        parse: Text to number (raises :class:`argparse.ArgumentTypeError` for other text).
+        low: The bound.
+        strict: Whether ``low`` itself is refused.
+        rule: The rule for the message, e.g. ``"greater than zero"``.
+        name: The type's name (argparse shows it for other errors).
+    """
+    def check(text: str) -> _N:
+        value = parse(text)
+        if value < low or (strict and value == low):
+            raise argparse.ArgumentTypeError(f"{text!r} must be {rule}")
+        return value
+
+    check.__name__ = check.__qualname__ = name
+    check.__doc__ = f"A number, {rule} (an argparse type)."
+    return check
+
+
+#: A finite number greater than zero (an argparse type).
+positive = _at_least(finite, 0.0, True, "greater than zero", "positive")
+#: A finite number, zero or more (an argparse type).
+nonnegative = _at_least(finite, 0.0, False, "zero or more", "nonnegative")
+#: A whole number, 1 or more (an argparse type).
+positive_int = _at_least(_whole, 1, False, "1 or more", "positive_int")
+#: A whole number, 0 or more (an argparse type).
+nonnegative_int = _at_least(_whole, 0, False, "zero or more", "nonnegative_int")
 
 
 def check_rpy(values: Sequence[float] | None, deg: bool, option: str = "--rpy") -> None:
@@ -159,26 +167,11 @@ def is_keyframe_file(path: str) -> bool:
     return any(line.startswith("armctl_keyframes:") for line in head.splitlines())
 
 
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, (np.floating, float)):
-        f = float(value)
-        return f if math.isfinite(f) else (None if math.isnan(f) else ("inf" if f > 0 else "-inf"))
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    return value
-
-
 def emit(args: argparse.Namespace, data: dict[str, Any], text: str) -> None:
     """Print ``data`` as JSON when ``--json`` was given, else the human-readable ``text``."""
     if getattr(args, "json", False):
         payload = {"schema": JSON_SCHEMA, "command": args.command, "ok": True, **data}
-        print(json.dumps(_jsonable(payload), indent=2))
+        print(json.dumps(json_safe(payload), indent=2))
     else:
         print(text)
 
@@ -186,14 +179,11 @@ def emit(args: argparse.Namespace, data: dict[str, Any], text: str) -> None:
 def print_error(args: argparse.Namespace, exc: ArmctlError, code: int) -> None:
     """Report an error on stderr, and as a JSON object on stdout with ``--json``."""
     if getattr(args, "json", False):
-        error: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc),
-                                 "exit_code": code}
-        extra = getattr(exc, "details", None)
-        if isinstance(extra, dict):
-            error["details"] = extra
+        error = {"type": type(exc).__name__, "message": str(exc), "exit_code": code,
+                 "details": exc.details}
         payload = {"schema": JSON_SCHEMA, "command": getattr(args, "command", None), "ok": False,
                    "error": error}
-        print(json.dumps(_jsonable(payload), indent=2))
+        print(json.dumps(json_safe(payload), indent=2))
     print(f"armctl: error: {exc}", file=sys.stderr)
 
 

@@ -288,10 +288,8 @@ def cmd_status(args: argparse.Namespace) -> int:
             sys.stdout.write("\x1b[H\x1b[2J" + f"{ab.arm_name} on {ab.spec.port} "
                              "(Ctrl-C to stop)\n\n" + text + "\n")
             sys.stdout.flush()
-            try:
-                time.sleep(max(0.02, args.interval))
-            except KeyboardInterrupt:  # the normal way to leave the live table
-                return 0
+            # Ctrl-C leaves the live table: exit 130, "interrupted by SIGINT" (cli main)
+            time.sleep(max(0.02, args.interval))
 
 
 def cmd_torque(args: argparse.Namespace) -> int:
@@ -364,13 +362,22 @@ def cmd_sim(args: argparse.Namespace) -> int:
 
 # ---- calibration ---------------------------------------------------------------------------------
 def _wait_enter(prompt: str, while_waiting: Any = None, period: float = 0.02) -> None:
+    """Print ``prompt`` and wait for Enter, calling ``while_waiting`` every ``period`` [s].
+
+    Raises:
+        InputError: When the input is closed (end of file) instead: the wizard needs Enter
+            presses, so nothing is measured or written.
+    """
     print(prompt, flush=True)
     while True:
         if while_waiting is not None:
             while_waiting()
         ready, _, _ = select.select([sys.stdin], [], [], period)
         if ready:
-            sys.stdin.readline()
+            if not sys.stdin.readline():
+                raise InputError("the input was closed (end of file) while the calibration "
+                                 "waited for Enter; nothing was written. Run 'armctl "
+                                 "calibrate' in a terminal and press Enter at each step")
             return
 
 

@@ -24,6 +24,8 @@ from armctl.cli._common import (
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     import numpy as np
 
     from armctl.arm import Arm
@@ -35,7 +37,8 @@ _DESCRIPTION = """\
 Inverse kinematics: find joint values that bring a frame (the tool by default) to a goal.
 Without --rpy/--quat/--direction only the position is constrained (3 DOF); --direction AXIS DX
 DY DZ points the tool's x, y or z axis along a direction (5 DOF, the goal for 5-joint arms);
---rpy or --quat give the full pose (6 DOF).
+--rpy or --quat give the full pose (6 DOF); --look-at X Y Z (without --xyz) points the tool's z
+axis (or --axis) at a point and leaves the position free (2 DOF, e.g. a wrist camera).
 """
 
 _EPILOG = """\
@@ -99,8 +102,15 @@ def add_goal_arguments(p: argparse.ArgumentParser) -> None:
                      help="target roll, pitch, yaw (URDF convention; radians, degrees with --deg)")
     rot.add_argument("--quat", nargs=4, type=finite, metavar=("W", "X", "Y", "Z"),
                      help="target orientation as a quaternion (normalised)")
-    rot.add_argument("--direction", nargs=4, metavar=("AXIS", "DX", "DY", "DZ"),
-                     help="point the frame's AXIS (x, y or z) along (DX, DY, DZ): a 5-DOF goal")
+    from armctl.ik.goals import goal_classes
+
+    for cls in goal_classes():  # the goal types' own flags
+        for arg in cls.cli_arguments:
+            many = len(arg.metavar) > 1
+            (rot if arg.exclusive else p).add_argument(
+                arg.flag, dest=arg.dest, nargs=len(arg.metavar) if many else None,
+                metavar=arg.metavar if many else arg.metavar[0],
+                type=finite if arg.numbers else str, choices=arg.choices or None, help=arg.help)
     p.add_argument("--frame", help="the frame that must reach the goal (default: the tool)")
     p.add_argument("--tol-pos", type=positive, default=1e-5, metavar="M",
                    help="position tolerance [m] (default 1e-5)")
@@ -110,8 +120,11 @@ def add_goal_arguments(p: argparse.ArgumentParser) -> None:
 
 def add_solver_arguments(p: argparse.ArgumentParser) -> None:
     """Arguments that choose and tune the solver."""
-    p.add_argument("--solver", default="auto",
-                   help="solver name: auto, dls, pinv, jt, ccd, ccd-jt, ... (default auto)")
+    from armctl.ik.registry import DEFAULT, solver_infos
+
+    p.add_argument("--solver", default=DEFAULT, metavar="NAME",
+                   help="; ".join(f"{i.name}: {i.summary}" for i in solver_infos())
+                   + f" (default {DEFAULT}; docs/ik-methods.md)")
     p.add_argument("--from", dest="q0", nargs="+", metavar="Q",
                    help="start configuration (default: the middle of the joint ranges)")
     p.add_argument("--deg", action="store_true", help="angles (--from, --rpy, output) in degrees")
@@ -162,11 +175,11 @@ def build_constraints(args: argparse.Namespace) -> tuple[Any, ...]:
 
 
 def build_goals(args: argparse.Namespace, arm: Arm) -> tuple[Goal, ...]:
-    """The goals described by the goal arguments."""
+    """The goal described by the goal arguments (the goal type whose flags were given)."""
     import numpy as np
 
-    from armctl.ik import DirectionGoal, OrientationGoal, PoseGoal, PositionGoal, Tolerance
-    from armctl.spatial import make_transform, quat_to_matrix, rpy_to_matrix
+    from armctl.ik import CliGoalInput, Tolerance, goal_classes
+    from armctl.spatial import quat_to_matrix, rpy_to_matrix
 
     frame = args.frame
     if frame is not None:
@@ -182,50 +195,42 @@ def build_goals(args: argparse.Namespace, arm: Arm) -> tuple[Goal, ...]:
         if not np.linalg.norm(quat) > 1e-9:
             raise InputError("--quat: the quaternion must not be zero")
         rot = quat_to_matrix(quat / np.linalg.norm(quat))
-    if args.xyz is None:
-        if rot is None:
-            raise InputError("give a goal: --xyz X Y Z, optionally with --rpy, --quat or "
-                             "--direction; or --rpy/--quat alone for an orientation goal")
-        return (OrientationGoal(rot, frame=frame, tolerance=tol),)
-    if args.direction is not None:
-        axis_name, *raw = args.direction
-        axes = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
-        if axis_name.lower() not in axes:
-            raise InputError(f"--direction: AXIS must be x, y or z, got {axis_name!r}")
-        try:
-            vec = [float(v) for v in raw]
-        except ValueError:
-            raise InputError(f"--direction: DX DY DZ must be numbers, got {raw}") from None
-        if not all(math.isfinite(v) for v in vec):
-            raise InputError(f"--direction: DX DY DZ must be finite numbers, got {raw}")
-        if not float(np.linalg.norm(vec)) > 1e-9:
-            raise InputError("--direction: the direction DX DY DZ must not be zero")
-        return (DirectionGoal(np.array(args.xyz), np.array(vec), np.array(axes[axis_name.lower()]),
-                              frame=frame, tolerance=tol),)
-    if rot is not None:
-        return (PoseGoal(make_transform(rot, args.xyz), frame=frame, tolerance=tol),)
-    return (PositionGoal(np.array(args.xyz), frame=frame, tolerance=tol),)
+    classes = goal_classes()
+    own = {a.flag: getattr(args, a.dest, None) for cls in classes for a in cls.cli_arguments}
+    given = CliGoalInput(None if args.xyz is None else np.array(args.xyz), rot, frame, tol, own)
+    goals = [g for g in (cls.from_cli(given) for cls in classes) if g is not None]
+    if len(goals) != 1:  # none (a flag missing), or flags of several types at once
+        usage = [a.usage for cls in classes for a in cls.cli_arguments if a.usage]
+        raise InputError("give a goal: --xyz X Y Z (a position), with --rpy or --quat (a pose); "
+                         "--rpy/--quat alone (an orientation); " + "; or ".join(usage))
+    return (goals[0],)
+
+
+def _goal_flags(args: argparse.Namespace) -> bool:
+    """Whether the command line describes a goal (besides a goals file)."""
+    from armctl.ik import goal_classes
+
+    own = [a.dest for c in goal_classes() for a in c.cli_arguments]
+    return any(getattr(args, k, None) is not None for k in ("xyz", "rpy", "quat", *own))
 
 
 def build_request(args: argparse.Namespace, arm: Arm) -> IKRequest:
     """The solver request described by all arguments (goals, start, solver, budgets)."""
     from armctl.ik import IKOptions
+    from armctl.ik.registry import solver_for
 
     constraints = build_constraints(args)
     if getattr(args, "goals_file", None):
         from armctl.ik.nlp.goals_file import load_goals
 
         doc = load_goals(args.goals_file)
-        goals = doc.goals if args.xyz is None and args.rpy is None and args.quat is None else (
-            *doc.goals, *build_goals(args, arm))
+        goals = (*doc.goals, *build_goals(args, arm)) if _goal_flags(args) else doc.goals
         constraints = (*doc.constraints, *constraints)
         for g in goals:
             arm.frame_index(g.frame)
     else:
         goals = build_goals(args, arm)
-    solver = args.solver
-    if constraints and solver == "auto":
-        solver = "nlp"  # the only solver that takes constraints
+    solver = solver_for(args.solver, goals, constraints)  # auto with constraints: nlp
     q0 = None
     if args.q0 is not None:
         q0 = arm.check_limits(parse_angles(args.q0, args.deg, arm, "--from"), "--from")
@@ -236,10 +241,18 @@ def build_request(args: argparse.Namespace, arm: Arm) -> IKRequest:
 
 def cmd_ik(args: argparse.Namespace) -> int:
     """Solve and print the joint values, the reached pose and the residual error."""
+    from armctl.errors import JointLimitError
     from armctl.ik.errors import IKFailedError
+    from armctl.servo.calibration import load_calibration
+    from armctl.servo.effective_limits import effective_limits
 
     arm = load_arm_arg(args)
-    req = build_request(args, arm)
+    limits = effective_limits(arm.spec, load_calibration(arm.spec))
+    arm = limits.apply(arm)  # answers inside the calibrated range, as the motion commands
+    try:
+        req = build_request(args, arm)
+    except JointLimitError as exc:  # --from: name the limit's source (config or calibration)
+        raise limits.error(exc.joint, exc.value, "--from") from None
     asked_pose = args.xyz is not None and (args.rpy is not None or args.quat is not None)
     if asked_pose and not args.force_pose:
         check_pose_dof(arm, req.goals[-1:])  # the command line's goal comes last
@@ -268,10 +281,17 @@ def cmd_ik(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pose_goal_types() -> tuple[type, ...]:
-    from armctl.ik import PoseGoal
+#: Footnote of the joints a goal does not involve (their value is the start's).
+_NOT_INVOLVED = ("not involved: joints that do not move the goal frame (e.g. a gripper) keep "
+                 "their start value (--from; default the middle of their range)")
 
-    return (PoseGoal,)
+
+def not_involved(arm: Arm, goals: Sequence[Goal]) -> list[str]:
+    """The joints that move none of the goals' frames (a gripper's, for a tool goal)."""
+    moving: set[int] = set()
+    for goal in goals:
+        moving.update(arm.chain(goal.frame))
+    return [n for i, n in enumerate(arm.joint_names) if i not in moving]
 
 
 def check_pose_dof(arm: Arm, goals: tuple[Goal, ...]) -> None:
@@ -281,7 +301,7 @@ def check_pose_dof(arm: Arm, goals: tuple[Goal, ...]) -> None:
         InputError: Naming the arm, the joint count and the goals that can be reached instead.
     """
     for goal in goals:
-        if not isinstance(goal, _pose_goal_types()):
+        if goal.dof < 6:
             continue
         n = len(arm.chain(goal.frame))
         if n < 6:
@@ -292,41 +312,18 @@ def check_pose_dof(arm: Arm, goals: tuple[Goal, ...]) -> None:
                 "(or --force-pose to try anyway)")
 
 
-def max_reach(arm: Arm, frame: str | None = None) -> float:
-    """An upper bound of the distance from the first joint of a frame's chain to the frame [m].
-
-    The sum of the distances between consecutive joint origins along the chain, plus the
-    frame's offset from the last joint, plus the stroke of prismatic joints: no configuration
-    puts the frame farther from the first joint.
-    """
-    import numpy as np
-
-    chain = arm.chain(frame)
-    jd = arm._jd
-    total = 0.0
-    for k, j in enumerate(chain):
-        if k > 0:
-            total += float(np.linalg.norm(jd[j, [3, 7, 11]]))
-        if jd[j, 15] > 0.5:  # prismatic: the joint moves its child along the axis
-            total += float(max(abs(arm.lower[j]), abs(arm.upper[j])))
-    total += float(np.linalg.norm(arm._fd[arm.frame_index(frame), [3, 7, 11]]))
-    return total
-
-
 def reach_hint(arm: Arm, goal: Goal) -> str | None:
     """A sentence when a goal's position lies beyond the arm's reach, else ``None``."""
     import numpy as np
 
-    target = getattr(goal, "position", None)
-    if target is None and hasattr(goal, "pose"):
-        target = np.asarray(goal.pose)[:3, 3]
+    target = goal.target_position
     chain = arm.chain(goal.frame)
     if target is None or not chain:
         return None
-    first = arm._jd[chain[0]]
-    base = first[[3, 7, 11]]  # the first joint's parent is the base: its origin in the base
+    # the first joint's parent is the base: its placement's translation is its origin there
+    base = arm.tree.joint_origin(chain[0])[:3, 3]
     dist = float(np.linalg.norm(np.asarray(target, dtype=float) - base))
-    reach = max_reach(arm, goal.frame)
+    reach = arm.reach(goal.frame, from_first_joint=True)
     if dist <= reach:
         return None
     return (f"goal is {dist:.3g} m from the base joint; the arm reaches at most about "
@@ -341,8 +338,10 @@ def _warm_up(arm: Arm, req: IKRequest) -> None:
     """
     from dataclasses import replace
 
-    if req.solver == "nlp" or req.constraints:
-        return  # the NLP builds its problem per goal: nothing reusable to load beforehand
+    from armctl.ik.registry import solver_info
+
+    if not solver_info(req.solver).capabilities.compiled or req.constraints:
+        return  # e.g. the NLP builds its problem per goal: nothing reusable to load beforehand
     options = replace(req.options, max_iterations=1, restarts=0, time_limit=1.0)
     arm.ik(list(req.goals), req.q0, req.solver, options=options)
 
@@ -352,6 +351,7 @@ def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[st
     from armctl.spatial import matrix_to_quat, matrix_to_rpy
 
     rows = []
+    idle = [] if req.constraints else not_involved(arm, req.goals)
     for i, name in enumerate(arm.joint_names):
         v = float(res.q[i])
         if arm.joint_types[i] is JointType.PRISMATIC:
@@ -359,8 +359,13 @@ def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[st
         else:
             rows.append([name, fmt(math.degrees(v) if deg else v, 4 if deg else 6),
                          "deg" if deg else "rad"])
+        if idle:
+            rows[-1].append("(not involved)" if name in idle else "")
     lines = [f"{res.message}; {res.iterations} iterations, {res.restarts} restarts, "
-             f"{res.time * 1e3:.2f} ms", "", table(["joint", "value", "unit"], rows, [1]), ""]
+             f"{res.time * 1e3:.2f} ms", "",
+             table(["joint", "value", "unit", *(["note"] if idle else [])], rows, [1]), ""]
+    if idle:
+        lines[-1:-1] = [_NOT_INVOLVED]
     frames = []
     for goal, err in zip(req.goals, res.goal_errors, strict=True):
         pose = arm.fk(res.q, goal.frame)
@@ -376,7 +381,8 @@ def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[st
                        "position_error": err.position, "rotation_error": err.rotation,
                        "reached": err.reached})
     data = {"success": res.success, "status": res.status.value, "solver": res.solver,
-            "q": res.q, "joints": arm.values_by_name(res.q), "iterations": res.iterations,
+            "q": res.q, "joints": arm.values_by_name(res.q), "not_involved": idle,
+            "iterations": res.iterations,
             "restarts": res.restarts, "time": res.time, "position_error": res.position_error,
             "rotation_error": res.rotation_error, "within_limits": res.within_limits,
             "frames": frames}
@@ -396,29 +402,42 @@ def _cmd_all(args: argparse.Namespace, arm: Arm, req: IKRequest) -> int:
     from armctl.config.schema import JointType
     from armctl.errors import NoSolutionError
     from armctl.ik.analytic import acceptance, ik_all
+    from armctl.ik.analytic.solve_all import CONTINUUM
+    from armctl.ik.registry import solver_info, solver_infos
 
-    if req.solver != "analytic":
-        raise InputError("--all lists the closed-form solutions; use it with --solver analytic")
+    if not solver_info(req.solver).capabilities.all_solutions:
+        able = [i.name for i in solver_infos() if i.capabilities.all_solutions]
+        raise InputError("--all lists the closed-form solutions; use it with --solver "
+                         f"{' or '.join(able)}")
     if len(req.goals) != 1 or req.constraints:
         raise InputError("--all takes exactly one goal and no constraints")
     goal = req.goals[0]
     every = ik_all(arm, goal, q_ref=req.q0, tol=acceptance(goal))  # as the single answer
-    distinct = every.distinct([t is not JointType.PRISMATIC for t in arm.joint_types])
+    prismatic = [t is JointType.PRISMATIC for t in arm.joint_types]
+    distinct = every.distinct([not p for p in prismatic])  # near-duplicates merged
     sols = every if args.variants else distinct
-    k = 180.0 / math.pi if args.deg else 1.0
-    rows = [[str(i + 1), "yes" if ok else "no", *(fmt(v * k, 4) for v in q), f"{ep:.1e}",
+    units = ["m" if p else "deg" if args.deg else "rad" for p in prismatic]
+    scale = [1.0 if p else 180.0 / math.pi if args.deg else 1.0 for p in prismatic]
+    digits = [6 if p else 4 for p in prismatic]
+    rows = [[str(i + 1), "yes" if ok else "no",
+             *(fmt(v * k, d) for v, k, d in zip(q, scale, digits, strict=True)), f"{ep:.1e}",
              f"{er:.1e}"]
             for i, (q, ok, ep, er) in enumerate(zip(sols.q, sols.within_limits,
                                                      sols.position_error, sols.rotation_error,
                                                      strict=True))]
+    idle = not_involved(arm, req.goals)
     variants = ("" if len(every) == len(distinct) else
                 f", {len(every)} rows with their 2 pi variants" if args.variants else
+                f"; --variants lists all {len(every)} rows (with the 2 pi variants and the "
+                "near-duplicate representatives)" if every.singular else
                 f"; --variants lists their {len(every)} rows with the 2 pi variants")
     head = (f"{len(distinct)} distinct solutions ({int(distinct.within_limits.sum())} inside "
             f"the limits){variants}; family: {sols.family}"
             + (f"; held at --from: {', '.join(sols.free)}" if sols.free else "")
-            + ("; SINGULAR goal: a continuum, representatives shown" if sols.singular else ""))
+            + ("; SINGULAR goal: a continuum of solutions, representatives at least "
+               f"{CONTINUUM[0]:g} rad apart shown" if sols.singular else ""))
     data = {"family": sols.family, "singular": sols.singular, "free": list(sols.free),
+            "not_involved": idle,
             "count": len(sols), "distinct": len(distinct), "with_variants": len(every),
             "variants_listed": bool(args.variants), "solutions": [
                 {"q": q, "joints": arm.values_by_name(q), "within_limits": bool(ok),
@@ -427,9 +446,11 @@ def _cmd_all(args: argparse.Namespace, arm: Arm, req: IKRequest) -> int:
                                          sols.rotation_error, strict=True)]}
     if not len(sols):
         raise NoSolutionError(f"no solution: the goal is out of reach ({sols.family})")
-    unit = "deg" if args.deg else "rad"
-    text = head + "\n\n" + table(["#", "in limits", *(f"{n} [{unit}]" for n in arm.joint_names),
+    text = head + "\n\n" + table(["#", "in limits", *(f"{n} [{u}]" for n, u in
+                                                       zip(arm.joint_names, units, strict=True)),
                                    "pos err [m]", "rot err [rad]"], rows,
                                   right=list(range(2, arm.dof + 4)))
+    if idle:
+        text += f"\n{_NOT_INVOLVED}: {', '.join(idle)}"
     emit(args, data, text)
     return 0

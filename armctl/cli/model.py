@@ -227,6 +227,22 @@ def _outside_limits(arm: Arm, q: np.ndarray, deg: bool) -> dict[str, str]:
     return out
 
 
+def _refuse_bundled_folder(out: Path) -> None:
+    """Refuse an output inside the folder of armctl's own arm configs (even with --force).
+
+    Raises:
+        ConfigError: Saying where to write instead.
+    """
+    from armctl.config import bundled_configs
+    from armctl.errors import ConfigError, KeyPath
+
+    folders = {p.parent.resolve() for p in bundled_configs().values()}
+    if out.resolve().parent in folders:
+        raise ConfigError("the output is in the folder of armctl's own bundled arm configs, "
+                          "which belong to the installed package", KeyPath(out),
+                          f"write it elsewhere, e.g. ./{out.name}, and give that file as CONFIG")
+
+
 def cmd_convert(args: argparse.Namespace) -> int:
     """Convert a URDF to armctl YAML."""
     from armctl.atomic_write import write_atomic
@@ -238,6 +254,12 @@ def cmd_convert(args: argparse.Namespace) -> int:
     if out.is_dir():
         raise ConfigError("the output is a folder", KeyPath(out),
                           f"give the YAML file to write, e.g. {out / 'arm.yaml'}")
+    if out.suffix.lower() not in (".yaml", ".yml"):
+        what = ("a URDF name, but convert writes armctl YAML"
+                if out.suffix.lower() in (".urdf", ".xml") else "not a YAML file name")
+        raise ConfigError(f"the output {out.name!r} is {what}", KeyPath(out),
+                          f"give a .yaml file name, e.g. {out.with_suffix('.yaml')}")
+    _refuse_bundled_folder(out)
     if out.exists() and not args.force:
         raise ConfigError("the output file exists already", KeyPath(out),
                           "choose another name or pass --force to overwrite it")

@@ -23,7 +23,7 @@ from armctl.cli._common import (
     table,
 )
 from armctl.config.schema import JointType
-from armctl.errors import ArmctlError, InputError
+from armctl.errors import InputError
 
 if TYPE_CHECKING:
     from armctl.arm import Arm
@@ -62,6 +62,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--deg", action="store_true", help="--rpy in degrees")
     p.add_argument("--linear", action="store_true", help="move the tool along a straight line")
     p.add_argument("--solver", default="auto", help="IK solver (default auto)")
+    p.add_argument("--force-pose", action="store_true",
+                   help="move to a full pose (--rpy/--quat) even when fewer than 6 joints move "
+                        "the frame (such a pose is reachable only on a 5-DOF subset)")
     _add_move_options(p)
     add_json(p)
     p.set_defaults(func=cmd_move_to_pose)
@@ -130,20 +133,36 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 # ---- shared ------------------------------------------------------------------------------------
-def _open(args: argparse.Namespace, hold: bool = False) -> Robot:
-    """Open the arm's robot (and its bus).
+def _open(args: argparse.Namespace, arm: Arm, hold: bool = False) -> Robot:
+    """Open the arm's robot (and its bus), with the command's exit policy (default: hold).
 
     Without ``hold`` nothing is written to the servos until the first motion (which holds the
     present pose first), so a plan is checked against the effective limits before torque comes
-    on, and a dry run never switches torque on.
+    on, and a dry run never switches torque on. With ``--exit-policy park`` the park pose is
+    checked against the config's limits before the bus opens and against the effective limits
+    right after, before anything moves.
+
+    Raises:
+        InputError: ``--exit-policy park`` for an arm without a 'park' pose.
+        JointLimitError: A 'park' pose outside the config's or the effective limits.
     """
+    from armctl.cli import _checks
     from armctl.config.motion import ExitPolicy
     from armctl.robot import Robot
 
-    policy = ExitPolicy(args.exit_policy) if getattr(args, "exit_policy", None) else None
+    policy = ExitPolicy(getattr(args, "exit_policy", None) or "hold")
+    if policy is ExitPolicy.PARK:
+        _checks.check_park_pose(arm)
     speed = getattr(args, "speed", None)
-    robot = Robot.open(args.config, speed=speed if speed is not None and speed <= 1 else None,
+    robot = Robot.open(arm, speed=speed if speed is not None and speed <= 1 else None,
                        exit_policy=policy, hold=hold)
+    try:
+        if policy is ExitPolicy.PARK:
+            robot.effective.check(robot.arm.named_pose("park"),
+                                  "the 'park' pose of --exit-policy park")
+    except BaseException:
+        robot.close_holding("the park pose was refused")
+        raise
     if robot.simulated and not getattr(args, "json", False):
         print(f"--- SIMULATED BUS: arm {robot.arm.name!r}, no hardware ---", file=sys.stderr)
     return robot
@@ -173,8 +192,10 @@ class _Progress:
         sys.stderr.flush()
 
     def done(self) -> None:
-        if self.enabled:
+        """End the bar's line (once, and only if a bar was drawn)."""
+        if self.enabled and self._last:
             sys.stderr.write("\n")
+            self._last = 0.0
 
 
 def _plan_data(robot: Robot, plan: MotionPlan) -> dict[str, Any]:
@@ -207,12 +228,17 @@ def _plan_text(robot: Robot, plan: MotionPlan, head: str) -> str:
             + table(["joint", "from", "to", "unit"], rows, right=[1, 2]))
 
 
-def _nothing_to_do(plan: MotionPlan, endpoints: bool = True) -> bool:
-    """Whether a plan does not move the arm (zero duration, or start = goal without events)."""
+def _nothing_to_do(plan: MotionPlan, endpoints: bool = True,
+                   still: float | np.ndarray = _STILL_GAP) -> bool:
+    """Whether a plan does not move the arm (zero duration, or start = goal without events).
+
+    ``still``: start and goal closer than this on every joint are the same position [rad]/[m]
+    (a scalar or ``(dof,)``, e.g. one servo tick).
+    """
     if plan.duration < _STILL_TIME:
         return True
-    gap = float(np.max(np.abs(plan.goal - plan.start), initial=0.0))
-    return endpoints and not plan.events and gap < _STILL_GAP
+    gap = np.abs(plan.goal - plan.start)
+    return endpoints and not plan.events and bool(np.all(gap < still))
 
 
 def _stream_text(robot: Robot, report: MoveReport, idle: str | None = None
@@ -242,47 +268,38 @@ def _stream_text(robot: Robot, report: MoveReport, idle: str | None = None
     return data, text
 
 
-def _close(robot: Robot, args: argparse.Namespace) -> None:
-    """End a command normally: hold the arm where it is, unless --exit-policy asks otherwise."""
+def _run(args: argparse.Namespace, fn: Any, arm: Arm) -> Any:
+    """Open the robot, run ``fn(robot, progress)`` and close.
+
+    The exit policy applies only when the command ends normally after a real run: a dry run
+    writes nothing at all; a stop, an error or a signal holds the arm where it is.
+    """
     from armctl.config.motion import ExitPolicy
-
-    robot.close(ExitPolicy(args.exit_policy) if getattr(args, "exit_policy", None)
-                else ExitPolicy.HOLD)
-
-
-def _hold_and_close(robot: Robot, args: argparse.Namespace, why: str) -> None:
-    """End a command that was stopped or failed: hold where the arm is, never park or release."""
-    from armctl.config.motion import ExitPolicy
-
-    if getattr(args, "exit_policy", None) not in (None, "hold"):
-        print(f"armctl: {why}: the arm holds where it is (--exit-policy {args.exit_policy} "
-              "not applied)", file=sys.stderr)
-    try:
-        robot.close(ExitPolicy.HOLD)
-    except ArmctlError as failure:  # keep the first error; report this one too
-        print(f"armctl: closing the bus failed: {failure}", file=sys.stderr)
-
-
-def _run(args: argparse.Namespace, fn: Any) -> Any:
     from armctl.robot import MotionStopped
 
-    robot = _open(args)
-    progress = _Progress(not args.json and not getattr(args, "dry_run", False))
+    robot = _open(args, arm)
+    dry = getattr(args, "dry_run", False)
+    progress = _Progress(not args.json and not dry)
     try:
         result = fn(robot, progress)
+        progress.done()
     except BaseException as exc:
         progress.done()
         if isinstance(exc, MotionStopped) and not args.json:
             print(_stop_text(robot, exc), flush=True)
-        _hold_and_close(robot, args, "the motion was stopped" if isinstance(exc, MotionStopped)
-                        else "the command failed")
+        robot.close_holding("the motion was stopped" if isinstance(exc, MotionStopped)
+                            else "the command failed")
         raise
-    progress.done()
     guard = getattr(args, "signal_guard", None)
-    if guard is not None and guard.signalled:  # a signal after the motion: no exit policy
-        _hold_and_close(robot, args, "signal received")
+    if dry:  # nothing was written to the servos, and nothing will be
+        if robot.exit_policy is not ExitPolicy.HOLD:
+            print(f"armctl: dry run: --exit-policy {robot.exit_policy.value} not applied "
+                  "(nothing was written to the servos)", file=sys.stderr)
+        robot.close(ExitPolicy.HOLD)
+    elif guard is not None and guard.signalled:  # a signal after the motion: no exit policy
+        robot.close_holding("signal received")
     else:
-        _close(robot, args)
+        robot.close()
     return robot, result
 
 
@@ -306,13 +323,15 @@ def _stop_text(robot: Robot, stopped: Any) -> str:
 def cmd_move_to_pose(args: argparse.Namespace) -> int:
     """``armctl move-to-pose``."""
     from armctl.cli import _checks
-    from armctl.cli.ik import build_goals
+    from armctl.cli.ik import build_goals, check_pose_dof
 
     if args.xyz is None:
         raise InputError("move-to-pose needs --xyz X Y Z (optionally with --rpy, --quat or "
                          "--direction)")
     arm = load_arm_arg(args)
     (goal,) = build_goals(args, arm)
+    if not args.force_pose:  # as armctl ik: a 6-DOF pose for fewer joints, refused at once
+        check_pose_dof(arm, (goal,))
     _checks.check_speed_arg(args, arm)
     _checks.check_solver(args.solver)
     _checks.check_goal_reach(arm, goal, args.solver)
@@ -341,7 +360,7 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
 
         return MoveReport(plan, res, ik, reached, dp, dr)
 
-    robot, report = _run(args, go)
+    robot, report = _run(args, go, arm)
     data: dict[str, Any] = {"plan": _plan_data(robot, report.plan),
                             "solver": report.ik.solver if report.ik else None}
     idle = "already at the goal; nothing to do" if _nothing_to_do(report.plan) else None
@@ -372,7 +391,7 @@ def cmd_move_joints(args: argparse.Namespace) -> int:
     q = parse_angles(args.values, args.deg, arm, "move-joints values")
     _check_values(arm, q, args.deg)
     _checks.check_speed_arg(args, arm)
-    return _joint_command(args, lambda robot: q, "move to joint values",
+    return _joint_command(args, arm, lambda robot: q, "move to joint values",
                           "already at these joint values; nothing to do")
 
 
@@ -383,7 +402,7 @@ def cmd_named(args: argparse.Namespace) -> int:
     arm = load_arm_arg(args)
     _checks.check_named_pose(arm, args.pose)
     _checks.check_speed_arg(args, arm)
-    return _joint_command(args, lambda robot: robot.arm.named_pose(args.pose),
+    return _joint_command(args, arm, lambda robot: robot.arm.named_pose(args.pose),
                           f"move to the {args.pose!r} pose",
                           f"already at the {args.pose!r} pose; nothing to do")
 
@@ -391,18 +410,24 @@ def cmd_named(args: argparse.Namespace) -> int:
 def _check_values(arm: Arm, q: np.ndarray, deg: bool) -> None:
     """Refuse joint values outside the limits, saying so in the unit they were given in.
 
+    The message names the limit's source as the effective limits do (the config's file, line
+    and key, and how to change it); ``details["limit_source"]`` is ``"config"`` (the
+    calibration and the servo registers are checked once the bus is open).
+
     Raises:
         JointValueError: For the first joint outside its limits; without ``--deg`` a rotary
             value that would be inside its limits in degrees adds "did you forget --deg?".
     """
     from armctl.config.schema import JointType
     from armctl.robot.errors import JointValueError
+    from armctl.servo.effective_limits import effective_limits
 
     for i, name in enumerate(arm.joint_names):
         v, lo, hi = float(q[i]), float(arm.lower[i]), float(arm.upper[i])
         if lo - 1e-9 <= v <= hi + 1e-9:
             continue
-        hint = "choose a value inside the limits or widen them in the arm config"
+        limits = effective_limits(arm.spec)
+        hint = limits.explain(name, v)
         if arm.joint_types[i] is JointType.PRISMATIC:
             unit, scale = "m", 1.0
         elif deg:
@@ -410,19 +435,27 @@ def _check_values(arm: Arm, q: np.ndarray, deg: bool) -> None:
         else:
             unit, scale = "rad", 1.0
             if lo <= math.radians(v) <= hi:
-                hint = f"did you forget --deg? ({v:g} deg is inside the limits)"
-        raise JointValueError(
+                hint = f"Did you forget --deg? ({v:g} deg is inside the limits) {hint}"
+        exc = JointValueError(
             name, v, lo, hi, f"joint {name!r}: {v * scale:.6g} {unit} is outside its limits "
             f"[{lo * scale:.6g}, {hi * scale:.6g}] {unit} (goal of move-joints); nothing was "
-            f"sent; {hint}")
+            f"sent. {hint}")
+        exc.details["limit_source"] = limits.joint(name).bound(v).source.value
+        raise exc
 
 
-def _joint_command(args: argparse.Namespace, target: Any, what: str, idle: str) -> int:
+def _joint_command(args: argparse.Namespace, arm: Arm, target: Any, what: str, idle: str
+                   ) -> int:
+    still: list[bool] = []
+
     def go(robot: Robot, progress: _Progress) -> MoveReport:
         from armctl.robot import MoveReport
 
         plan = robot.plan_joints(target(robot), args.speed, what)
-        if _nothing_to_do(plan):
+        if _nothing_to_do(plan, still=_one_tick(robot)):  # a servo cannot get any closer
+            still.append(True)
+            if not args.json:  # before what the exit policy says
+                print(idle, flush=True)
             return MoveReport(plan)
         if not args.json:
             print(_plan_text(robot, plan, f"arm {robot.arm.name}"), flush=True)
@@ -431,27 +464,90 @@ def _joint_command(args: argparse.Namespace, target: Any, what: str, idle: str) 
         res = robot.execute(plan, progress)
         return MoveReport(plan, res, reached=robot.arm.fk(res.final))
 
-    robot, report = _run(args, go)
-    data = {"plan": _plan_data(robot, report.plan)}
-    sdata, text = _stream_text(robot, report, idle if _nothing_to_do(report.plan) else None)
+    robot, report = _run(args, go, arm)
+    data: dict[str, Any] = {"plan": _plan_data(robot, report.plan)}
+    if still:
+        data.update(moved=False, nothing_to_do=True)
+        if args.json:
+            emit(args, data, idle)
+        return 0
+    sdata, text = _stream_text(robot, report)
     data.update(sdata)
+    if report.result is not None and report.reached is not None:
+        rdata, rtext = _reached_joints(robot, report.plan.goal, report.result.final,
+                                       report.reached)
+        data.update(rdata)
+        text += "\n" + rtext
     emit(args, data, text)
     return 0
 
 
+def _one_tick(robot: Robot) -> np.ndarray:
+    """One servo tick of every joint in joint units ``(dof,)`` [rad]/[m] (at least 1e-6)."""
+    eff = robot.effective
+    tick = {j.name: j.margin / max(eff.margin_ticks, 1) for j in eff.joints}
+    return np.maximum([tick.get(n, 0.0) for n in robot.arm.joint_names], _STILL_GAP)
+
+
+def _reached_joints(robot: Robot, goal: np.ndarray, final: np.ndarray, reached: np.ndarray
+                    ) -> tuple[dict[str, Any], str]:
+    """The reached tool pose and the remaining error of a joint move (JSON fields, text).
+
+    Args:
+        robot: The robot.
+        goal: The joint goal ``(dof,)`` [rad]/[m].
+        final: The joints read back after the move ``(dof,)``.
+        reached: FK of ``final`` (the tool) ``(4, 4)``.
+    """
+    from armctl.config.schema import JointRole
+    from armctl.spatial import matrix_to_rpy
+
+    arm = robot.arm
+    aimed = arm.fk(goal)
+    dp = float(np.linalg.norm(reached[:3, 3] - aimed[:3, 3]))
+    cos = (float(np.trace(aimed[:3, :3].T @ reached[:3, :3])) - 1.0) / 2.0
+    dr = math.acos(min(1.0, max(-1.0, cos)))
+    err = np.asarray(final, dtype=float) - np.asarray(goal, dtype=float)
+    rpy = matrix_to_rpy(reached[:3, :3])
+    data = {"reached_xyz": reached[:3, 3], "reached_rpy": rpy, "position_error": dp,
+            "rotation_error": dr, "joint_errors": arm.values_by_name(err)}
+    arm_joints = [i for i, r in enumerate(arm.joint_roles) if r is not JointRole.GRIPPER]
+    worst = max(arm_joints or range(arm.dof), key=lambda i: abs(err[i]))
+    value, unit = _shown(arm, worst, abs(float(err[worst])))
+    text = (f"reached xyz {np.round(reached[:3, 3], 4).tolist()} m, rpy "
+            f"{np.round(np.degrees(rpy), 1).tolist()} deg (FK of the joints read back)\n"
+            f"remaining error: tool {dp * 1000:.2f} mm, {math.degrees(dr):.2f} deg; joints at "
+            f"most {value} {unit} ({arm.joint_names[worst]})")
+    return data, text
+
+
 def cmd_play(args: argparse.Namespace) -> int:
     """``armctl play``."""
+    from dataclasses import replace
+
     from armctl.cli import _checks
     from armctl.motion import Interpolation, PlaybackOptions, load_keyframes
+    from armctl.motion.playback import check_playback_speed
 
     _refuse_swapped(args.file, args.config)
     _checks.check_keyframe_path(args.file)
     arm = load_arm_arg(args)
     program = load_keyframes(args.file, arm)
+    if not program.keyframes:
+        from pathlib import Path
+
+        from armctl.errors import ConfigError, KeyPath
+
+        raise ConfigError("the keyframe file has no keyframes: nothing to play",
+                          KeyPath(Path(args.file), ("keyframes",)),
+                          f"record keyframes into it: armctl teach {args.config} -o "
+                          f"{args.file} --append")
     options = PlaybackOptions(
         interpolation=Interpolation(args.interpolation), blend=not args.stop_at_keyframes,
-        speed=args.speed, loops=args.loop, reverse=args.reverse, ease_in=not args.no_ease_in,
+        loops=args.loop, reverse=args.reverse, ease_in=not args.no_ease_in,
         use_times=not args.ignore_times)
+    check_playback_speed(program, options, args.speed)  # the range that applies to this file
+    options = replace(options, speed=args.speed)
     _checks.check_play(args, arm, program, options)
     if args.preview:
         args.dry_run = True
@@ -475,7 +571,7 @@ def cmd_play(args: argparse.Namespace) -> int:
         res = robot.execute(plan, progress)
         return MoveReport(plan, res, reached=robot.arm.fk(res.final))
 
-    robot, report = _run(args, go)
+    robot, report = _run(args, go, arm)
     data: dict[str, Any] = {"plan": _plan_data(robot, report.plan),
                             "keyframes": [{"name": w.name, "time": w.time}
                                           for w in report.plan.waypoints],
@@ -554,14 +650,17 @@ TEACH_HELP = """commands (then Enter):
 
 def cmd_teach(args: argparse.Namespace) -> int:
     """``armctl teach``: an interactive, line-based teach session."""
+    from pathlib import Path
+
     from armctl.cli import _checks
     from armctl.motion import AngleUnit
     from armctl.robot.teach import ExistingFile, TeachSession
 
-    _checks.check_teach_output(args, load_arm_arg(args))
+    arm = load_arm_arg(args)
+    _checks.check_teach_output(args, arm)
     existing = (ExistingFile.APPEND if args.append else
                 ExistingFile.OVERWRITE if args.force else ExistingFile.REFUSE)
-    robot = _open(args, hold=True)  # the stiff joints (grippers) hold from the start
+    robot = _open(args, arm, hold=True)  # the stiff joints (grippers) hold from the start
     try:
         session = TeachSession(robot, args.output, args.release,
                                AngleUnit.DEG if args.deg else AngleUnit.RAD, existing=existing)
@@ -578,10 +677,15 @@ def cmd_teach(args: argparse.Namespace) -> int:
         finally:
             session.finish()
     finally:
-        _close(robot, args)
+        robot.close()
     n = len(session.program.keyframes)
-    emit(args, {"file": args.output, "keyframes": n},
-         f"{n} keyframes in {args.output}; torque on, holding the present pose")
+    written = Path(args.output).exists()
+    text = f"{n} keyframes in {args.output}"
+    if not n:  # no empty keyframe file is left behind (an appended one is kept)
+        text = f"nothing was recorded; {args.output} " + (
+            "left as it was" if written else "was not written")
+    emit(args, {"file": args.output, "keyframes": n, "written": written},
+         f"{text}; torque on, holding the present pose")
     return 0
 
 
@@ -591,10 +695,54 @@ def _number(text: str) -> float:
     Raises:
         ValueError: For text that is not a finite number.
     """
-    value = float(text)
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a number") from None
     if not math.isfinite(value):
         raise ValueError(f"{text!r} is not a finite number")
     return value
+
+
+def _jog_joint(session: Any, robot: Robot, joint: str, delta: float) -> None:
+    """Jog ``joint`` by ``delta`` as typed: degrees for a rotary joint, millimetres else.
+
+    Raises:
+        InputError: For a goal outside the effective limits, in the unit typed, with the
+            limit's source; for an unknown joint.
+    """
+    from armctl.errors import JointLimitError
+
+    arm = robot.arm
+    prismatic = arm.joint_types[arm.joint_index(joint)] is JointType.PRISMATIC
+    unit, scale = ("mm", 1000.0) if prismatic else ("deg", math.degrees(1.0))
+    try:
+        session.jog_joint(joint, delta / scale)
+    except JointLimitError as exc:
+        if exc.joint != joint:
+            raise
+        raise InputError(
+            f"jogging {joint!r} by {delta:g} {unit} would take it to {exc.value * scale:.4g} "
+            f"{unit}, outside its limits [{exc.lower * scale:.4g}, {exc.upper * scale:.4g}] "
+            f"{unit}; nothing moved. {robot.effective.explain(joint, exc.value)}") from None
+
+
+def _jog_tool(session: Any, delta_mm: np.ndarray) -> None:
+    """Jog the tool along a straight line by ``delta_mm`` [mm].
+
+    Raises:
+        NoSolutionError: When the line cannot be followed, with advice for a teach session.
+    """
+    from armctl.errors import NoSolutionError
+    from armctl.motion.errors import PathError
+
+    try:
+        session.jog_cartesian(delta_mm / 1000)
+    except PathError as exc:
+        raise NoSolutionError(
+            f"the straight-line jog fails {exc.fraction:.0%} of the way: {exc.reason}; nothing "
+            "was moved. Jog in smaller steps, or move single joints with 'j JOINT DELTA'"
+        ) from None
 
 
 def _teach_loop(session: Any, robot: Robot, say: Any, complain: Any) -> None:
@@ -606,7 +754,6 @@ def _teach_loop(session: Any, robot: Robot, say: Any, complain: Any) -> None:
     """
     import threading
 
-    from armctl.config.schema import JointType
     from armctl.errors import NoSolutionError
 
     while True:
@@ -654,24 +801,25 @@ def _teach_loop(session: Any, robot: Robot, say: Any, complain: Any) -> None:
 
                 worker = threading.Thread(target=record, daemon=True)
                 worker.start()
-                say(f"recording at {rate:g} Hz; press Enter to stop")
-                if duration is None:
-                    sys.stdin.readline()
+                try:  # Ctrl-C (or anything) while waiting ends the recording too
+                    say(f"recording at {rate:g} Hz; press Enter to stop")
+                    if duration is None:
+                        sys.stdin.readline()
+                    else:
+                        worker.join()
+                finally:
                     stop.set()
-                worker.join()
+                    worker.join()
                 if failure:
                     raise failure[0]
                 say(f"{len(session.program.keyframes)} keyframes in the file")
             elif cmd == "j":
-                joint, delta = rest[0], _number(rest[1])
-                kind = robot.arm.joint_types[robot.arm.joint_index(joint)]
-                step = delta / 1000 if kind is JointType.PRISMATIC else math.radians(delta)
-                session.jog_joint(joint, step)
-                say(f"{joint} moved")
+                _jog_joint(session, robot, rest[0], _number(rest[1]))
+                say(f"{rest[0]} moved")
             elif cmd == "x":
                 if len(rest) != 3:
                     raise ValueError("x takes three numbers DX DY DZ [mm]")
-                session.jog_cartesian(np.array([_number(v) for v in rest]) / 1000)
+                _jog_tool(session, np.array([_number(v) for v in rest]))
                 say(f"tool at {np.round(robot.pose()[:3, 3], 4).tolist()} m")
             elif cmd == "limp":
                 session.set_limp(True)
@@ -689,4 +837,4 @@ def _teach_loop(session: Any, robot: Robot, say: Any, complain: Any) -> None:
             complain(f"error: {exc}")
         except (ValueError, IndexError) as exc:
             why = "a value is missing" if isinstance(exc, IndexError) else str(exc)
-            complain(f"could not read {line.strip()!r}: {why}; type 'help'")
+            complain(f"error: could not read {line.strip()!r}: {why}; type 'help'")

@@ -223,7 +223,10 @@ Geometry = Box | Cylinder | Sphere | Capsule | Mesh
 
 @dataclass(frozen=True)
 class LinkSpec:
-    """A rigid link: its name and the geometry bound to it (the seed's rigid binding).
+    """A rigid link: its name and the geometry bound to it rigidly.
+
+    Rigid binding as in the lecture (L. Kavan, *Metody skeletální animace*, 2002): every vertex
+    of the geometry moves with this link alone.
 
     Attributes:
         name: Unique link name.

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from armctl.ik import DirectionGoal, Goal, IKOptions, PoseGoal, PositionGoal
+from armctl.ik import Goal, IKOptions
 from armctl.kinematics.model import KinematicModel
 from armctl.motion.errors import PathError
 from armctl.motion.interpolate import Interpolation, spline_through
@@ -26,11 +26,9 @@ from armctl.motion.limits import MotionLimits, check_trajectory
 from armctl.motion.plan import MotionPlan, Waypoint
 from armctl.motion.profiles import quintic_segment
 from armctl.motion.trajectory import PathTrajectory, PiecewisePolynomial
-from armctl.spatial import matrix_to_quat, quat_to_matrix, slerp
+from armctl.typing import Array
 
 __all__ = ["LineOptions", "interpolate_goal", "plan_line"]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -58,49 +56,21 @@ class LineOptions:
 def interpolate_goal(start: Array, goal: Goal, s: float) -> Goal:
     """The goal at fraction ``s`` of the straight line from the start pose ``(4, 4)`` to ``goal``.
 
-    Position moves on the line; a full orientation is SLERPed; a direction turns on the great
-    circle from the start direction of the tool axis.
+    Each goal type defines its line (:meth:`armctl.ik.goals.Goal.interpolate`): a position moves
+    on the line; a full orientation is SLERPed; a direction turns on the great circle from the
+    start direction of the tool axis; the point a look-at goal looks at moves on the line from
+    the point the axis points at first.
+
+    Raises:
+        PathError: For a goal type without a straight line (an orientation goal).
     """
-    p0 = start[:3, 3]
-    if isinstance(goal, PoseGoal):
-        pos = p0 + s * (goal.position - p0)
-        quat = slerp(matrix_to_quat(start[:3, :3]), matrix_to_quat(goal.rotation), s)
-        pose = np.eye(4)
-        pose[:3, :3] = quat_to_matrix(quat)
-        pose[:3, 3] = pos
-        return replace(goal, pose=pose)
-    if isinstance(goal, DirectionGoal):
-        d0 = start[:3, :3] @ goal.axis
-        return replace(goal, position=p0 + s * (goal.position - p0),
-                       direction=_turn(d0, goal.direction, s))
-    if isinstance(goal, PositionGoal):
-        return replace(goal, position=p0 + s * (goal.position - p0))
-    raise PathError(0.0, f"a straight line needs a position, direction or pose goal, not "
-                         f"{type(goal).__name__}")
+    if goal.line_span(start) is None:
+        raise PathError(0.0, _no_line(goal))
+    return goal.interpolate(start, s)
 
 
-def _turn(a: Array, b: Array, s: float) -> Array:
-    """Unit vector a fraction ``s`` of the way from ``a`` to ``b`` on the great circle."""
-    c = float(np.clip(a @ b, -1.0, 1.0))
-    angle = math.acos(c)
-    if angle < 1e-9:
-        return b.copy()
-    axis = np.cross(a, b)
-    if np.linalg.norm(axis) < 1e-9:  # opposite: any perpendicular axis
-        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-    axis = axis / np.linalg.norm(axis)
-    th = s * angle
-    return a * math.cos(th) + np.cross(axis, a) * math.sin(th) + axis * (axis @ a) * (
-        1 - math.cos(th))
-
-
-def _rotation_span(start: Array, goal: Goal) -> float:
-    if isinstance(goal, PoseGoal):
-        d = goal.rotation @ start[:3, :3].T
-        return math.acos(float(np.clip((np.trace(d) - 1.0) / 2.0, -1.0, 1.0)))
-    if isinstance(goal, DirectionGoal):
-        return math.acos(float(np.clip((start[:3, :3] @ goal.axis) @ goal.direction, -1, 1)))
-    return 0.0
+def _no_line(goal: Goal) -> str:
+    return f"a straight line is not defined for {goal.label} goals ({type(goal).__name__})"
 
 
 def _at_limit(model: KinematicModel, q: Array) -> str:
@@ -140,7 +110,9 @@ def _line_deviation(model: KinematicModel, path: PiecewisePolynomial, start: Arr
     q, _, _ = path.sample_many(s)
     pts = model.fk_batch(q, frame)[:, :3, 3]
     p0 = start[:3, 3]
-    target = getattr(goal, "position", p0)
+    target = goal.target_position
+    if target is None:  # the frame's position is free: no line for it to keep to
+        return 0.0, 0.0
     seg = np.asarray(target) - p0
     length = float(seg @ seg)
     u = np.clip(((pts - p0) @ seg) / length, 0.0, 1.0) if length > 0 else np.zeros(n)
@@ -156,7 +128,8 @@ def plan_line(model: KinematicModel, q0: npt.ArrayLike, goal: Goal, limits: Moti
     Args:
         model: The arm (an :class:`armctl.arm.Arm`, which has ``ik``).
         q0: Present joint values ``(dof,)``.
-        goal: Where the goal's frame must go (position, direction or pose goal).
+        goal: Where the goal's frame must go (a goal type with a straight line: position,
+            direction, pose or look-at).
         limits: The arm's hard limits.
         speed: Speed factor in (0, 1].
         options: Sampling resolution and tolerances.
@@ -172,9 +145,11 @@ def plan_line(model: KinematicModel, q0: npt.ArrayLike, goal: Goal, limits: Moti
     scaled = limits.scaled(speed)
     q_start = np.asarray(q0, dtype=float)
     start = model.fk(q_start, goal.frame)
-    dist = float(np.linalg.norm(getattr(goal, "position", start[:3, 3]) - start[:3, 3]))
-    n = max(8, math.ceil(dist / options.max_step),
-            math.ceil(_rotation_span(start, goal) / options.max_rotation_step))
+    span = goal.line_span(start)
+    if span is None:
+        raise PathError(0.0, _no_line(goal))
+    dist, turn = span
+    n = max(8, math.ceil(dist / options.max_step), math.ceil(turn / options.max_rotation_step))
     for _ in range(3):
         qs = _solve_path(model, q_start, start, goal, n, options)
         knots = np.linspace(0.0, 1.0, n + 1)

@@ -17,23 +17,32 @@ class LimitViolation(PlanningError):
         bound: The limit it exceeds (positive for velocity and above, the crossed position limit
             for position).
         time: When along the trajectory [s].
-        hint: How to fix it.
+        hint: How to fix it (a sentence; its first letter is capitalised).
+        unit: The joint's unit, ``"rad"`` or ``"m"`` (the value's unit follows from ``kind``,
+            e.g. rad/s for a velocity); empty when unknown.
+
+    ``details``: ``joint``, ``limit`` (the kind), ``value``, ``bound`` and ``time``.
     """
 
     def __init__(self, joint: str, kind: str, value: float, bound: float, time: float,
-                 hint: str = ""):
+                 hint: str = "", unit: str = ""):
         self.joint = joint
         self.kind = kind
         self.value = value
         self.bound = bound
         self.time = time
-        self.details = {"joint": joint, "limit": kind, "value": value, "bound": bound,
-                        "time": time}
-        text = (f"planned {kind} of joint {joint!r} would be {value:.6g} at t={time:.3f} s, "
-                f"beyond its limit {bound:.6g}; nothing was moved")
+        self.unit = unit
+        shown = f" {unit}{_PER_TIME.get(kind, '')}" if unit else ""
+        text = (f"planned {kind} of joint {joint!r} would be {value:.6g}{shown} at "
+                f"t={time:.3f} s, beyond its limit {bound:.6g}{shown}; nothing was moved")
         if hint:
-            text += f". {hint}"
-        super().__init__(text)
+            text += f". {hint[:1].upper()}{hint[1:]}"
+        super().__init__(text, {"joint": joint, "limit": kind, "value": value, "bound": bound,
+                                "time": time})
+
+
+#: The time derivative in a limit's unit, by kind (rad/s, rad/s^2, ...).
+_PER_TIME = {"velocity": "/s", "acceleration": "/s^2", "jerk": "/s^3"}
 
 
 class PathError(PlanningError):
@@ -43,14 +52,15 @@ class PathError(PlanningError):
         fraction: Fraction of the path [0-1] planned before the failure.
         reason: What failed there (IK, a joint limit, a jump between IK branches).
         joint: The joint involved, when one is.
+
+    ``details``: ``fraction``, ``reason`` and ``joint``.
     """
 
     def __init__(self, fraction: float, reason: str, joint: str | None = None):
         self.fraction = fraction
         self.reason = reason
         self.joint = joint
-        self.details = {"fraction": fraction, "reason": reason, "joint": joint}
         super().__init__(
             f"straight-line path planned to {fraction:.0%}, fails at s={fraction:.2f}: {reason}; "
             "nothing was moved. Try a joint-space move (without --linear), or a goal closer to "
-            "the arm's workspace centre")
+            "the arm's workspace centre", {"fraction": fraction, "reason": reason, "joint": joint})

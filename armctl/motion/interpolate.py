@@ -18,10 +18,10 @@ from armctl.errors import PlanningError
 from armctl.motion.limits import MotionLimits
 from armctl.motion.profiles import quintic_segment, ruckig_move
 from armctl.motion.trajectory import Chain, PiecewisePolynomial, RuckigTrajectory, Trajectory
+from armctl.typing import Array
 
 __all__ = ["Interpolation", "cubic_knot_velocities", "plan_run", "spline_through"]
 
-Array = npt.NDArray[np.float64]
 
 _MARGIN = 1.01  # final uniform slow-down so that samples between the test points stay inside
 _SAMPLES_PER_SEGMENT = 48

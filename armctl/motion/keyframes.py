@@ -8,14 +8,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from enum import Enum
 
-import numpy as np
-import numpy.typing as npt
-
 from armctl.errors import InputError, KeyPath
+from armctl.typing import Array
 
 __all__ = ["AngleUnit", "Keyframe", "KeyframeProgram", "LengthUnit"]
-
-Array = npt.NDArray[np.float64]
 
 
 class AngleUnit(Enum):

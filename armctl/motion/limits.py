@@ -13,6 +13,7 @@ from armctl.errors import InputError
 from armctl.kinematics.model import KinematicModel
 from armctl.motion.errors import LimitViolation
 from armctl.motion.trajectory import Chain, RuckigTrajectory, TimeScaled, Trajectory
+from armctl.typing import Array
 
 __all__ = [
     "DEFAULT_ACCELERATION",
@@ -24,7 +25,6 @@ __all__ = [
     "check_trajectory",
 ]
 
-Array = npt.NDArray[np.float64]
 
 #: Velocity used for a joint whose YAML gives none: [rad/s] for rotary, [m/s] for prismatic.
 DEFAULT_VELOCITY = {"rotary": 1.0, "prismatic": 0.05}
@@ -38,7 +38,8 @@ _POSITION_HINT = ("The path swings outside the joint's range: add a keyframe the
                   "keyframes, or use linear interpolation")
 
 
-#: Slowest speed factor [-]: slower moves would take hours (and break the trajectory generator).
+#: Slowest speed factor [-]: slower moves take over 100 times as long as at the limits (and
+#: break the trajectory generator).
 MIN_SPEED = 0.01
 #: Fastest speed factor of a recording played by its time stamps [-].
 MAX_RECORDED_SPEED = 4.0
@@ -74,13 +75,22 @@ def check_speed(speed: float, upper: float = 1.0, what: str = "speed factor") ->
     if value <= 0.0:
         raise InputError(f"{what} {value:g} must be positive; {valid} (1 = at the limits)")
     if value < MIN_SPEED:
-        raise InputError(f"{what} {value:g} is too slow: {valid} (below {MIN_SPEED:g} a move "
-                         "would take hours)")
+        raise InputError(f"{what} {value:g} is too slow: {valid} ({value:g} makes every move "
+                         f"{1.0 / value:.0f} times as long as at the limits: a move of 1 s "
+                         f"would take {_duration_text(1.0 / value)})")
     if value > upper:
         above = ("; factors above 1 would exceed the joint limits" if upper == 1.0 else "")
         raise InputError(f"{what} {value:g} is too fast: {valid}{above}; use {upper:g} or "
                          "lower")
     return value
+
+
+def _duration_text(seconds: float) -> str:
+    """A duration [s] for messages: seconds, minutes, hours or days."""
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
 
 
 @dataclass(frozen=True)
@@ -94,6 +104,7 @@ class MotionLimits:
         velocity: Highest speed [rad/s]/[m/s].
         acceleration: Highest acceleration [rad/s^2]/[m/s^2].
         jerk: Highest jerk [rad/s^3]/[m/s^3]; ``inf`` where not configured.
+        units: Each joint's unit, ``"rad"`` or ``"m"``, for messages; empty when unknown.
     """
 
     names: tuple[str, ...]
@@ -102,6 +113,11 @@ class MotionLimits:
     velocity: Array
     acceleration: Array
     jerk: Array
+    units: tuple[str, ...] = ()
+
+    def unit(self, i: int) -> str:
+        """The unit of joint ``i`` (``"rad"``, ``"m"``; empty when unknown)."""
+        return self.units[i] if self.units else ""
 
     @property
     def dof(self) -> int:
@@ -123,7 +139,8 @@ class MotionLimits:
         a = np.where(np.isfinite(model.acceleration_limits), model.acceleration_limits, adef)
         j = np.where(np.isfinite(model.jerk_limits), model.jerk_limits, np.inf)
         return cls(tuple(model.joint_names), np.array(model.lower, dtype=float),
-                   np.array(model.upper, dtype=float), v, a, j)
+                   np.array(model.upper, dtype=float), v, a, j,
+                   tuple("m" if p else "rad" for p in prismatic))
 
     def scaled(self, speed: float) -> MotionLimits:
         """Limits for a speed factor: velocity x s, acceleration x s^2, jerk x s^3.
@@ -138,13 +155,14 @@ class MotionLimits:
         """
         speed = check_speed(speed)
         return MotionLimits(self.names, self.lower, self.upper, self.velocity * speed,
-                            self.acceleration * speed**2, self.jerk * speed**3)
+                            self.acceleration * speed**2, self.jerk * speed**3, self.units)
 
     def subset(self, index: npt.ArrayLike) -> MotionLimits:
         """The limits of some joints only."""
         idx = np.asarray(index, dtype=int)
         return MotionLimits(tuple(self.names[i] for i in idx), self.lower[idx], self.upper[idx],
-                            self.velocity[idx], self.acceleration[idx], self.jerk[idx])
+                            self.velocity[idx], self.acceleration[idx], self.jerk[idx],
+                            tuple(self.units[i] for i in idx) if self.units else ())
 
     def check_position(self, q: npt.ArrayLike, context: str) -> None:
         """Raise :class:`LimitViolation` if ``q`` lies outside the position limits."""
@@ -154,7 +172,8 @@ class MotionLimits:
             i = int(bad[0])
             bound = self.lower[i] if arr[i] < self.lower[i] else self.upper[i]
             raise LimitViolation(self.names[i], "position", float(arr[i]), float(bound), 0.0,
-                                 f"({context}) choose a target inside the joint limits")
+                                 f"({context}) choose a target inside the joint limits",
+                                 self.unit(i))
 
 
 def _ruckig_parts(traj: Trajectory, offset: float = 0.0, factor: float = 1.0
@@ -217,7 +236,7 @@ def check_trajectory(traj: Trajectory, limits: MotionLimits, dt: float = 0.002,
             if bad.size:
                 i = int(bad[0])
                 raise LimitViolation(limits.names[i], "position", float(vals[i]),
-                                     float(bounds[i]), start, _POSITION_HINT)
+                                     float(bounds[i]), start, _POSITION_HINT, limits.unit(i))
     return int(ts.size)
 
 
@@ -231,4 +250,4 @@ def _first_violation(ts: Array, values: Array, lo: Array, hi: Array, limits: Mot
     v = float(values[k, i])
     bound = float(lo[i] if v < lo[i] else hi[i])
     raise LimitViolation(limits.names[int(i)], kind, v, bound if kind == "position" else abs(bound),
-                         float(ts[k]), hint)
+                         float(ts[k]), hint, limits.unit(int(i)))

@@ -11,10 +11,9 @@ import numpy.typing as npt
 from armctl.motion.limits import MotionLimits, check_trajectory
 from armctl.motion.profiles import ruckig_move
 from armctl.motion.trajectory import Trajectory
+from armctl.typing import Array
 
 __all__ = ["Event", "MotionPlan", "Waypoint", "plan_joint_move"]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from armctl.errors import ConfigError, InputError, KeyPath, NoSolutionError
 from armctl.kinematics.model import KinematicModel
 from armctl.motion.errors import LimitViolation
 from armctl.motion.interpolate import Interpolation, plan_run
-from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram
+from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram, LengthUnit
 from armctl.motion.limits import (
     MAX_RECORDED_SPEED,
     MIN_SPEED,
@@ -32,11 +32,11 @@ from armctl.motion.limits import (
 from armctl.motion.plan import Event, MotionPlan, Waypoint
 from armctl.motion.profiles import ruckig_move
 from armctl.motion.trajectory import Chain, Hold, Trajectory
+from armctl.typing import Array
 
 __all__ = ["IKFunction", "PlaybackOptions", "check_keyframe_values", "check_playback_speed",
            "plan_program", "resolve_keyframes"]
 
-Array = npt.NDArray[np.float64]
 
 #: Solves a tool pose ``(4, 4)`` for joint values, seeded with ``(dof,)``; the flag says whether
 #: the orientation counts (else only the position). Raises :class:`NoSolutionError` when the pose
@@ -87,17 +87,34 @@ class PlaybackOptions:
         return self.use_times and program.timed and not self.reverse
 
 
-def check_playback_speed(program: KeyframeProgram, options: PlaybackOptions) -> None:
+def check_playback_speed(program: KeyframeProgram, options: PlaybackOptions,
+                         speed: float | None = None) -> None:
     """Refuse a speed factor that does not apply to how ``program`` is timed.
 
     A recording played by its time stamps takes :data:`MIN_SPEED` to
     :data:`MAX_RECORDED_SPEED`; every other program is timed by the joint limits and takes
-    :data:`MIN_SPEED` to 1.
+    :data:`MIN_SPEED` to 1. The message gives the range that applies to this program.
+
+    Args:
+        program: The program.
+        options: How it is played.
+        speed: The factor to check [-]; ``None``: ``options.speed`` (a factor can be checked
+            before options are built with it, which accept up to :data:`MAX_RECORDED_SPEED`).
 
     Raises:
-        InputError: For a factor above 1 on a program timed by the limits, saying why.
+        InputError: For a factor outside the range that applies (above 1 on a program timed
+            by the limits says why).
     """
-    if options.timed(program) or options.speed <= 1.0:
+    value = options.speed if speed is None else speed
+    if options.timed(program):
+        check_speed(value, MAX_RECORDED_SPEED)
+        return
+    try:
+        above = float(value) > 1.0
+    except (TypeError, ValueError):
+        above = False
+    if not above:
+        check_speed(value, 1.0)
         return
     if not program.timed:
         why = "its keyframes have no time stamps"
@@ -106,7 +123,7 @@ def check_playback_speed(program: KeyframeProgram, options: PlaybackOptions) -> 
     else:
         why = "the time stamps are ignored"
     raise InputError(
-        f"speed factor {options.speed:g} is above 1, which applies only to recordings played "
+        f"speed factor {value:g} is above 1, which applies only to recordings played "
         f"by their time stamps; this program is timed by the joint limits ({why}), where the "
         f"factor is {MIN_SPEED:g} to 1 (1 = at the limits): try --speed 1 or lower")
 
@@ -259,7 +276,7 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
                       "with --ignore-times (timed by the joint limits)")
             raise LimitViolation(exc.joint, exc.kind, exc.value, exc.bound, exc.time,
                                  f"the recorded timing is too fast at speed {options.speed:g};"
-                                 f" {advice}") from None
+                                 f" {advice}", exc.unit) from None
         raise
     desc = (f"{len(program.keyframes)} keyframes, {options.interpolation.value}, "
             f"{'blended' if options.blend else 'stop at each'}, x{options.loops}")
@@ -333,11 +350,30 @@ def _check_keyframe(program: KeyframeProgram, model: KinematicModel, k: int, kf:
             unit, scale = "deg", float(np.degrees(1.0))
         source = "" if kf.q is not None else " (IK solution of the pose)"
         where = kf.where if kf.where.keys else KeyPath(keys=("keyframes", k), label=kf.label)
+        fix = "change the keyframe to a value inside the joint limits"
+        if kf.q is not None or what:  # a value of the file: perhaps written in another unit
+            fix = _unit_hint(program, model.joint_types[i], v, lo, hi) + fix
         raise ConfigError(
             f"{what}joint {model.joint_names[i]!r} would be "
             f"{v * scale:.6g} {unit}{source}, outside its limits [{lo * scale:.6g}, "
-            f"{hi * scale:.6g}] {unit}; nothing was moved", where,
-            "change the keyframe to a value inside the joint limits")
+            f"{hi * scale:.6g}] {unit}; nothing was moved", where, fix)
+
+
+def _unit_hint(program: KeyframeProgram, jtype: JointType, value: float, lo: float,
+               hi: float) -> str:
+    """A question when a file value [rad]/[m] outside ``[lo, hi]`` fits them in another unit.
+
+    Radians that fit as degrees suggest ``units: {angle: deg}``; metres that fit as millimetres
+    ``units: {length: mm}``. Empty when neither applies.
+    """
+    if jtype is JointType.PRISMATIC:
+        if program.length_unit is LengthUnit.M and lo <= value / 1000.0 <= hi:
+            return ("the values look like millimetres: set 'units: {length: mm}' at the top of "
+                    "the file? Or ")
+    elif program.angle_unit is AngleUnit.RAD and lo <= math.radians(value) <= hi:
+        return ("the values look like degrees: set 'units: {angle: deg}' at the top of the "
+                "file? Or ")
+    return ""
 
 
 def _emit_run(run: list[_Stop], limits: MotionLimits, options: PlaybackOptions, timed: bool,

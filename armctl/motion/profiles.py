@@ -17,6 +17,7 @@ import ruckig
 from armctl.errors import PlanningError
 from armctl.motion.limits import MotionLimits
 from armctl.motion.trajectory import Hold, PiecewisePolynomial, RuckigTrajectory, Trajectory
+from armctl.typing import Array
 
 __all__ = [
     "min_jerk_duration",
@@ -25,7 +26,6 @@ __all__ = [
     "stop_trajectory",
 ]
 
-Array = npt.NDArray[np.float64]
 
 _STILL = 1e-12
 

@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from armctl.typing import Array
+
 if TYPE_CHECKING:
     import ruckig
 
@@ -27,7 +29,6 @@ __all__ = [
     "Trajectory",
 ]
 
-Array = npt.NDArray[np.float64]
 Sampled = tuple[Array, Array, Array]
 
 

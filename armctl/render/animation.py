@@ -32,10 +32,10 @@ from armctl.render.draw import (
 from armctl.render.errors import MissingToolError, OutputError
 from armctl.render.picture import Target, panel_figure, resolve_frames, triad_length
 from armctl.render.plots import check_output
+from armctl.typing import Array
 
 __all__ = ["ANIMATION_SUFFIXES", "Animation", "render_animation", "resample"]
 
-Array = npt.NDArray[np.float64]
 
 #: File types that :func:`render_animation` writes.
 ANIMATION_SUFFIXES = (".gif", ".mp4")

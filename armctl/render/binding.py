@@ -1,4 +1,7 @@
-"""Geometry bound rigidly to links: every vertex belongs to exactly one link (the seed's model).
+"""Geometry bound rigidly to links: every vertex belongs to exactly one link.
+
+This is the rigid binding of the lecture (L. Kavan, *Metody skeletální animace*, 2002), with
+links for bones.
 
 :class:`BoundGeometry` tessellates each link's shapes once, in the link frame (the part of the
 drawing that depends on the model alone). Posing the arm is then one rigid transform per link:
@@ -16,10 +19,9 @@ from armctl.config.schema import Geometry
 from armctl.kinematics.linkshapes import GeometryRole, link_shapes
 from armctl.kinematics.model import KinematicModel
 from armctl.render.shapes import TriMesh, shape_mesh
+from armctl.typing import Array
 
 __all__ = ["BoundGeometry", "BoundShape", "link_meshes"]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.render.binding import BoundGeometry
+from armctl.typing import Array
 
 if TYPE_CHECKING:
     from mpl_toolkits.mplot3d import Axes3D
@@ -32,7 +33,6 @@ __all__ = [
     "setup_axes",
 ]
 
-Array = npt.NDArray[np.float64]
 
 _LINK_COLORS = ("#E69F00", "#8FA3B8")
 _BASE_COLOR = "#4D4D4D"

@@ -17,11 +17,14 @@ class OutputError(InputError):
         path: The file that was asked for.
         problem: What is wrong.
         fix: How to fix it.
+
+    ``details``: ``path``, ``problem`` and ``fix``.
     """
 
     def __init__(self, path: Path, problem: str, fix: str):
         self.path = path
-        super().__init__(f"cannot write {path}: {problem}\n  fix: {fix}")
+        super().__init__(f"cannot write {path}: {problem}\n  fix: {fix}",
+                         {"path": path, "problem": problem, "fix": fix})
 
 
 class MissingToolError(InputError):

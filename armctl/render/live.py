@@ -1,9 +1,10 @@
 """A live 3-D view of an arm in the browser (optional extra ``view``: the viser package).
 
 Every link is a node of the browser's scene graph holding its geometry in the link frame; moving
-the arm sets one pose per link node, the seed's rigid binding. The view offers one slider per
-joint, a draggable target that runs IK from the current pose, and can follow a servo bus (it
-only reads joint positions; it never commands the arm).
+the arm sets one pose per link node (the rigid binding of the lecture, L. Kavan, *Metody
+skeletální animace*, 2002). The view offers one slider per joint, a draggable target that runs
+IK from the current pose, and can follow a servo bus (it only reads joint positions; it never
+commands the arm).
 
 viser is imported when a :class:`LiveView` starts, so other commands do not pay for it.
 """
@@ -24,10 +25,10 @@ from armctl.kinematics.model import KinematicModel
 from armctl.render.binding import BoundGeometry
 from armctl.render.errors import MissingToolError
 from armctl.spatial import make_transform, matrix_to_quat, quat_to_matrix
+from armctl.typing import Array
 
 __all__ = ["LiveView"]
 
-Array = npt.NDArray[np.float64]
 
 _LINK_RGB = ((230, 159, 0), (143, 163, 184))
 _BASE_RGB = (77, 77, 77)

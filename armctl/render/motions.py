@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.errors import NoSolutionError
+from armctl.typing import Array
 
 if TYPE_CHECKING:
     from armctl.arm import Arm
@@ -21,8 +22,6 @@ if TYPE_CHECKING:
     from armctl.motion.playback import IKFunction
 
 __all__ = ["PlannedLine", "plan_keyframes", "plan_straight_line", "sample_plan"]
-
-Array = npt.NDArray[np.float64]
 
 
 def _ik_for(arm: Arm, program: KeyframeProgram, solver: str) -> IKFunction:

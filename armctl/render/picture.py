@@ -26,6 +26,7 @@ from armctl.render.draw import (
 )
 from armctl.render.plots import check_output, new_figure, save_figure
 from armctl.spatial import make_transform, rpy_to_matrix
+from armctl.typing import Array
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -41,8 +42,6 @@ __all__ = [
     "resolve_frames",
     "triad_length",
 ]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)

@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from armctl.config.schema import Box, Capsule, Cylinder, Geometry, Mesh, Sphere
 from armctl.kinematics.linkshapes import read_mesh
+from armctl.typing import Array
 
 __all__ = [
     "MAX_MESH_FACES",
@@ -31,7 +32,6 @@ __all__ = [
     "sphere_mesh",
 ]
 
-Array = npt.NDArray[np.float64]
 
 #: Mesh files with more triangles than this are simplified (see :func:`decimate`) for drawing.
 MAX_MESH_FACES = 6000

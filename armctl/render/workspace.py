@@ -12,17 +12,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import numpy.typing as npt
 
 from armctl.errors import InputError
 from armctl.kinematics.model import KinematicModel
 from armctl.render.binding import BoundGeometry
 from armctl.render.draw import ArmArtist, Bounds, Camera, setup_axes
 from armctl.render.plots import check_output, new_figure, save_figure, style_axes
+from armctl.typing import Array
 
 __all__ = ["Workspace", "WorkspacePlot", "plot_workspace", "sample_workspace", "voxel_volume"]
-
-Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)

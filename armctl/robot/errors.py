@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from enum import Enum
 
-from armctl.errors import InputError, JointLimitError, MotionAborted
+from armctl.errors import InputError, JointLimitError, MotionAborted, json_safe
 
 __all__ = ["JointValueError", "MotionStopped", "SignalInterrupt", "StopReason"]
 
@@ -35,7 +35,10 @@ class MotionStopped(MotionAborted):
     Attributes:
         stopped_at: Where the arm stopped, once known (:meth:`locate`): ``joints`` (name ->
             value [rad]/[m], read back after the stop), ``xyz`` [m] and ``rpy`` [rad] of the
-            tool by FK of those joints; ``None`` before.
+            tool by FK of those joints (lists); ``None`` before.
+
+    ``details``: ``reason`` (the value of :class:`StopReason`), ``joint``, ``servo_id``,
+    ``time``, ``signal`` (e.g. ``"SIGINT"``, or ``None``) and, once known, ``stopped_at``.
     """
 
     def __init__(self, reason: StopReason, message: str, joint: str | None = None,
@@ -48,10 +51,8 @@ class MotionStopped(MotionAborted):
         self.time = time
         self.signum = signum
         self.stopped_at: dict[str, object] | None = None
-        self.details: dict[str, object] = {"reason": reason.value, "joint": joint,
-                                           "servo_id": servo_id, "time": time,
-                                           "signal": _signal_name(signum)}
-        super().__init__(message)
+        super().__init__(message, {"reason": reason.value, "joint": joint, "servo_id": servo_id,
+                                   "time": time, "signal": _signal_name(signum)})
 
     def locate(self, joints: dict[str, float], xyz: object, rpy: object) -> None:
         """Record where the arm stopped (also under ``details["stopped_at"]``).
@@ -61,7 +62,7 @@ class MotionStopped(MotionAborted):
             xyz: Tool position by FK of those joints ``(3,)`` [m].
             rpy: Tool roll, pitch, yaw ``(3,)`` [rad].
         """
-        self.stopped_at = {"joints": dict(joints), "xyz": xyz, "rpy": rpy}
+        self.stopped_at = json_safe({"joints": dict(joints), "xyz": xyz, "rpy": rpy})
         self.details["stopped_at"] = self.stopped_at
 
 
@@ -105,6 +106,8 @@ class JointValueError(JointLimitError):
         lower: Lower limit [rad]/[m].
         upper: Upper limit [rad]/[m].
         message: The whole message, in the user's unit, with a hint how to fix it.
+
+    ``details`` as for :class:`JointLimitError`, in SI units.
     """
 
     def __init__(self, joint: str, value: float, lower: float, upper: float, message: str):
@@ -112,5 +115,5 @@ class JointValueError(JointLimitError):
         self.value = value
         self.lower = lower
         self.upper = upper
-        self.details = {"joint": joint, "value": value, "lower": lower, "upper": upper}
-        InputError.__init__(self, message)
+        InputError.__init__(self, message,
+                            {"joint": joint, "value": value, "lower": lower, "upper": upper})

@@ -34,10 +34,10 @@ from armctl.motion import MotionLimits, MotionPlan, Trajectory, stop_trajectory
 from armctl.robot.errors import MotionStopped, StopReason
 from armctl.robot.stop import StopRequest, signals_stop
 from armctl.servo.errors import PortIOError, ServoAlarmError
+from armctl.typing import Array
 
 __all__ = ["BusState", "CycleInfo", "Executor", "JointBus", "StreamResult", "StreamStats"]
 
-Array = npt.NDArray[np.float64]
 
 logger = logging.getLogger(__name__)
 
@@ -160,10 +160,13 @@ class StreamResult:
     log_meas: Array = field(default_factory=lambda: np.zeros((0, 0)))
 
 
-class _Abort(Exception):
+class _Abort(ArmctlError):
+    """Why the streaming loop must stop; caught inside the executor and raised as MotionStopped."""
+
     def __init__(self, reason: StopReason, message: str, joint: str | None = None,
                  servo_id: int | None = None):
-        super().__init__(message)
+        super().__init__(message, {"reason": reason.value, "joint": joint,
+                                   "servo_id": servo_id})
         self.reason = reason
         self.message = message
         self.joint = joint
@@ -314,13 +317,18 @@ class Executor:
         Raises:
             MotionStopped: After a controlled stop, for a stop request (signal or
                 ``KeyboardInterrupt``), a servo alarm, a lost servo or a tracking error; the
-                arm holds where the stop ended.
+                arm holds where the stop ended. A stop request in the last cycle or while the
+                servos settle at the goal also ends in ``MotionStopped`` (the arm holds at the
+                goal): a motion asked to stop never reports success.
         """
         stop = stop or StopRequest()
         if self.last_command is None:  # nothing commanded yet: torque on, holding, first
             self.hold()
         with signals_stop(stop):
-            return self._stream(plan, stop, on_cycle, record)
+            result = self._stream(plan, stop, on_cycle, record)
+        if stop.requested:  # between the settled end and the handlers' restoring
+            raise self._stopped_at_goal(plan, stop)
+        return result
 
     def _stream(self, plan: MotionPlan, stop: StopRequest,
                 on_cycle: Callable[[CycleInfo], None] | None, record: bool) -> StreamResult:
@@ -423,7 +431,8 @@ class Executor:
                                        float(np.max(err, initial=0.0)), stopping is not None))
                 except BaseException as exc:  # Ctrl-C, or an error in the caller's callback
                     if isinstance(exc, KeyboardInterrupt):
-                        stop.request("Ctrl-C (KeyboardInterrupt)", signal.SIGINT)
+                        if not stop.requested:  # once per motion: never a second request
+                            stop.request("Ctrl-C (KeyboardInterrupt)", signal.SIGINT)
                         failure = failure or exc
                     else:
                         on_cycle = None  # it failed: stop without calling it again
@@ -440,13 +449,19 @@ class Executor:
             if finished and stopping is not None:
                 break
         elapsed = last_start - t0
+        t_stop = stopping[1] if stopping is not None else min(k * dt, traj.duration)
         settle = 0.0
         final_cmd = self.last_command if self.last_command is not None else np.zeros(0)
         meas_final = final_cmd
         if frozen and not blind:
             settle, meas_final = self._await_rest(final_cmd)
+        elif not blind and abort is None:  # arrival: at the plan's own end, not a clipped one
+            settle, meas_final = self._settle(traj.end[self.idx], plan, traj.duration,
+                                              stop=stop)
         elif not blind:
-            settle, meas_final = self._settle(final_cmd, require=abort is None)
+            settle, meas_final = self._settle(final_cmd, plan, t_stop, require=False)
+        if abort is None and stop.requested:  # in the last cycle, or while settling
+            raise self._stopped_at_goal(plan, stop) from failure
         jit = np.array(jitter) if jitter else np.zeros(1)
         stats = StreamStats(
             rate_hz=self.rate_hz, cycles=len(jitter), elapsed=elapsed,
@@ -457,9 +472,7 @@ class Executor:
         final = plan.trajectory.end.copy()
         final[self.idx] = meas_final
         if abort is not None:
-            held = plan.trajectory.end.copy()
-            held[self.idx] = final_cmd
-            t_stop = stopping[1] if stopping is not None else min(k * dt, traj.duration)
+            held = self._full(plan, final_cmd)
             suffix = ("; the arm decelerated and holds its position" if not blind else
                       "; the other servos decelerated and hold their position")
             if abort.reason is StopReason.BUS_IO:
@@ -477,20 +490,26 @@ class Executor:
                                 ) from failure
         return StreamResult(stats, final, np.array(log_t), np.array(log_c), np.array(log_m))
 
-    def _settle(self, goal: Array, require: bool = True) -> tuple[float, Array]:
+    def _settle(self, goal: Array, plan: MotionPlan, at: float, require: bool = True,
+                stop: StopRequest | None = None) -> tuple[float, Array]:
         """Keep holding ``goal`` until the servos are within tolerance (or time out).
 
         Args:
-            goal: The final command (bus joint order).
+            goal: The position to hold (bus joint order): the plan's end, or where a stop ended.
+            plan: The plan that was streamed (for the joints without a servo, and the report).
+            at: When along the plan the motion ended [s] (its duration, or where a stop began).
             require: Fail if a joint (other than a gripper) has not arrived by the timeout.
+            stop: Stop requests to watch: a request ends the wait at once (the goal stays
+                commanded; the caller reports the stop).
 
         Returns:
             The time it took [s] and the last measured position (never the goal itself).
 
         Raises:
-            MotionStopped: For a servo alarm, a servo lost for ``lost_after`` reads, or (with
-                ``require``) a joint short of its goal (reason ``NOT_REACHED``), naming the
-                joint, its servo, how far short it is and a likely cause.
+            MotionStopped: For a servo alarm, a servo lost for ``lost_after`` reads, a bus
+                error while holding the goal, or (with ``require``) a joint short of its goal
+                (reason ``NOT_REACHED``), naming the joint, its servo, how far short it is and
+                a likely cause.
         """
         t0 = time.perf_counter()
         dt = 1.0 / self.rate_hz
@@ -503,22 +522,51 @@ class Executor:
             except _Abort as exc:
                 misses += 1
                 if exc.reason is not StopReason.LOST_SERVO or misses >= self.lost_after:
-                    raise MotionStopped(exc.reason, exc.message + "; the arm was at the end of "
-                                        "its motion", exc.joint, exc.servo_id, goal) from None
+                    raise self._settle_failed(exc, goal, plan, at, require) from None
                 time.sleep(dt)
                 continue
+            if stop is not None and stop.requested:
+                return time.perf_counter() - t0, meas
             short = (np.abs(meas - goal) > self.arrival_tolerance) & self.must_arrive
             if goal.size == 0 or not short.any():
                 return time.perf_counter() - t0, meas
             if time.perf_counter() - t0 > self.settle_timeout:
                 if require:
-                    raise self._not_reached(goal, meas, short, time.perf_counter() - t0)
+                    raise self._not_reached(goal, meas, short, time.perf_counter() - t0,
+                                            self._full(plan, goal), at)
                 return time.perf_counter() - t0, meas
             time.sleep(dt)
-            self.bus.write_joints(goal)
+            try:  # nothing to a servo that reported an alarm: the next read names it
+                self._write(self._full(plan, goal), skip_alarmed=True)
+            except _Abort as exc:
+                raise self._settle_failed(exc, goal, plan, at, require) from None
+
+    def _full(self, plan: MotionPlan, bus_values: Array) -> Array:
+        """The arm vector ``(dof,)``: ``bus_values`` on the servo joints, else the plan's end."""
+        full = plan.trajectory.end.copy()
+        full[self.idx] = bus_values
+        return full
+
+    def _settle_failed(self, exc: _Abort, goal: Array, plan: MotionPlan, at: float,
+                       arrived: bool) -> MotionStopped:
+        """The error for a bus fault while the servos settle (``arrived``: at the plan's end)."""
+        suffix = ("; nothing more could be sent: each servo holds the last goal it got"
+                  if exc.reason is StopReason.BUS_IO else
+                  "; the arm was at the end of its motion" if arrived else
+                  "; the arm was stopping")
+        return MotionStopped(exc.reason, exc.message + suffix, exc.joint, exc.servo_id,
+                             self._full(plan, goal), at)
+
+    def _stopped_at_goal(self, plan: MotionPlan, stop: StopRequest) -> MotionStopped:
+        """The error for a stop request that came as the motion reached its goal."""
+        held = self.last_command if self.last_command is not None else plan.trajectory.end[
+            self.idx]
+        return MotionStopped(StopReason.USER, f"stopped by {stop.reason} as the motion reached "
+                             "its goal; the arm holds there", None, None, self._full(plan, held),
+                             plan.duration, stop.signum)
 
     def _not_reached(self, goal: Array, meas: Array, short: npt.NDArray[np.bool_],
-                     waited: float) -> MotionStopped:
+                     waited: float, held: Array, at: float) -> MotionStopped:
         """The error for joints that stopped short of the goal at the end of a motion."""
         load: Array | None = None
         try:
@@ -549,7 +597,7 @@ class Executor:
                      "register stops it. Check for an obstacle and the load, and compare the "
                      "registers with 'armctl status'.")
         return MotionStopped(StopReason.NOT_REACHED, f"{text}. {cause} Torque stays on with "
-                             "the goal commanded.", name, sid, goal)
+                             "the goal commanded.", name, sid, held, at)
 
     def _shown(self, i: int, value: float) -> str:
         """A joint value or distance for a message: degrees (rotary) or millimetres."""

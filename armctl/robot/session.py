@@ -25,15 +25,15 @@ import numpy.typing as npt
 
 from armctl.arm import Arm, load_arm
 from armctl.config.motion import ExitPolicy, MotionSpec
-from armctl.config.schema import JointRole
+from armctl.config.schema import JointRole, JointType
 from armctl.errors import ArmctlError, InputError
 from armctl.ik import Goal, IKResult, PositionGoal
-from armctl.ik.errors import IKFailedError
 from armctl.motion import (
     KeyframeProgram,
     MotionLimits,
     MotionPlan,
     PlaybackOptions,
+    check_trajectory,
     plan_joint_move,
     plan_program,
 )
@@ -41,7 +41,9 @@ from armctl.motion.cartesian import LineOptions, plan_line
 from armctl.motion.errors import LimitViolation
 from armctl.robot.errors import MotionStopped
 from armctl.robot.executor import CycleInfo, Executor, JointBus, StreamResult
-from armctl.robot.stop import StopRequest, signals_stop
+from armctl.robot.stop import StopRequest
+from armctl.robot.unreachable import unreachable
+from armctl.typing import Array
 
 if TYPE_CHECKING:
     from armctl.robot.teach import TeachSession
@@ -50,14 +52,20 @@ if TYPE_CHECKING:
 
 __all__ = ["MoveReport", "Robot"]
 
-Array = npt.NDArray[np.float64]
 
 logger = logging.getLogger(__name__)
 
-#: Largest distance [rad]/[m] between a plan's start and the present position for it to be run.
-_START_TOLERANCE = 0.05
-#: Readings this far [rad]/[m] outside a limit are planned from the limit itself.
-_OUTSIDE_TOLERANCE = 0.02
+#: Readings this far outside an effective limit are planned from the limit itself: rotary
+#: [rad], prismatic [m]; at least the joint's safety margin plus :data:`_NOISE_TICKS`, so that a
+#: joint resting at the stop it was calibrated to can be held (see :meth:`Robot.plan_start`).
+_OUTSIDE_ROTARY = 0.02
+_OUTSIDE_LINEAR = 0.001
+#: Encoder noise and settling beyond the safety margin [servo tick].
+_NOISE_TICKS = 4
+#: Largest distance between a plan's start and the present position for it to be run: rotary
+#: [rad], prismatic [m]; at least 1.5 times the outside tolerance.
+_START_ROTARY = 0.05
+_START_LINEAR = 0.002
 
 
 @dataclass(frozen=True)
@@ -120,6 +128,16 @@ class Robot:
                                  self.motion.max_tracking_error,
                                  explain_short=self._short_cause)
         self.stop = StopRequest()
+        prismatic = np.array([t is JointType.PRISMATIC for t in self.arm.joint_types], dtype=bool)
+        margin = np.array([j.margin for j in self.effective.joints])
+        noise = 1.0 + _NOISE_TICKS / max(self.effective.margin_ticks, 1)
+        #: How far outside its effective limits a joint's reading is taken as the limit itself
+        #: ``(dof,)`` [rad]/[m].
+        self.outside_tolerance: Array = np.maximum(
+            np.where(prismatic, _OUTSIDE_LINEAR, _OUTSIDE_ROTARY), margin * noise)
+        #: Largest distance between a plan's start and the present position ``(dof,)``.
+        self.start_tolerance: Array = np.maximum(np.where(prismatic, _START_LINEAR, _START_ROTARY),
+                                                 1.5 * self.outside_tolerance)
         # Joints without a servo (if any) are taken to stay at zero, clipped into their limits.
         self._q = np.clip(np.zeros(arm.dof), self.arm.lower, self.arm.upper)
         self._closed = False
@@ -168,12 +186,23 @@ class Robot:
             self.close()
             return
         # A stop, Ctrl-C or an error ended the block: hold, never a surprise drive to park.
+        self.close_holding(f"the block ended with {exc_type.__name__}")
+
+    def close_holding(self, why: str) -> None:
+        """Close after a stop, an error or a signal: hold where the arm is, never park or release.
+
+        Logs a warning when that skips the exit policy, and one (instead of raising) when
+        closing the bus fails, so that the error that ended the block or command is not hidden.
+
+        Args:
+            why: What ended it, for the warning, e.g. ``"the motion was stopped"``.
+        """
         if self.exit_policy is not ExitPolicy.HOLD and not self._closed:
-            logger.warning("the block ended with %s: holding the arm where it is (exit policy "
-                           "%r not applied)", exc_type.__name__, self.exit_policy.value)
+            logger.warning("%s: holding the arm where it is (exit policy %r not applied)", why,
+                           self.exit_policy.value)
         try:
             self.close(ExitPolicy.HOLD)
-        except ArmctlError as failure:  # do not hide the error that ended the block
+        except ArmctlError as failure:
             logger.warning("closing the bus failed: %s", failure)
 
     def close(self, policy: ExitPolicy | None = None) -> None:
@@ -269,9 +298,10 @@ class Robot:
     def plan_start(self) -> Array:
         """The present joints as the start of a plan.
 
-        A reading just outside an effective limit (up to :data:`_OUTSIDE_TOLERANCE`, encoder
-        noise, the safety margin of a joint resting at its calibrated stop) is taken as the
-        limit itself.
+        A reading just outside an effective limit (up to :attr:`outside_tolerance`: 0.02 rad or
+        1 mm, and at least the joint's safety margin plus encoder noise, so that a joint
+        resting at its calibrated stop or at its servo's limit register is accepted) is taken
+        as the limit itself.
 
         Raises:
             JointLimitError: If a joint is further outside its effective limits (naming the
@@ -279,8 +309,8 @@ class Robot:
         """
         q = self.joints()
         lo, hi = self.arm.lower, self.arm.upper
-        out = np.maximum(lo - q, q - hi)
-        if float(np.max(out, initial=0.0)) > _OUTSIDE_TOLERANCE:
+        out = np.maximum(lo - q, q - hi) - self.outside_tolerance
+        if float(np.max(out, initial=0.0)) > 0.0:
             i = int(np.argmax(out))
             raise self.effective.error(self.arm.joint_names[i], float(q[i]),
                                        "present position: move the joint inside by hand with "
@@ -315,7 +345,8 @@ class Robot:
                                  "The path swings outside the joint's effective range: add a "
                                  "keyframe there, stop at keyframes, or use linear "
                                  "interpolation. "
-                                 + self.effective.explain(exc.joint, exc.value)) from None
+                                 + self.effective.explain(exc.joint, exc.value),
+                                 exc.unit) from None
 
     def solve(self, goal: Goal, solver: str = "auto", q0: npt.ArrayLike | None = None
               ) -> IKResult:
@@ -328,25 +359,11 @@ class Robot:
         start = self.joints() if q0 is None else np.asarray(q0, dtype=float)
         res = self.arm.ik(goal, q0=start, solver=solver)
         if not res.success:
-            advice = "Check the goal is inside the arm's reach"
-            if not isinstance(goal, PositionGoal):
-                advice += ", or give fewer orientation constraints"
-            advice += "."
             narrowed = self.effective.narrowed()
-            if narrowed:
-                which = ", ".join(f"{n} ({'/'.join(s)})" for n, s in narrowed.items())
-                advice += (" IK searched inside the effective limits, narrower than the "
-                           f"config for: {which} (see 'armctl status').")
-            details = {"status": res.status.value, "solver": res.solver,
-                       "closest_q": np.asarray(res.q, dtype=float),
-                       "closest_joints": self.arm.values_by_name(res.q),
-                       "position_error": res.position_error,
-                       "rotation_error": res.rotation_error,
-                       "closest_xyz": self.arm.fk(res.q, goal.frame)[:3, 3]}
-            raise IKFailedError(
-                res, f"the goal cannot be reached ({res.status.value}): closest found is "
-                f"{res.position_error * 1000:.1f} mm and {np.degrees(res.rotation_error):.1f} "
-                f"deg away (solver {res.solver}); nothing was moved. {advice}", details)
+            which = ", ".join(f"{n} ({'/'.join(s)})" for n, s in narrowed.items())
+            note = (f"IK searched inside the effective limits, narrower than the config for: "
+                    f"{which} (see 'armctl status')." if narrowed else "")
+            raise unreachable(self.arm, goal, res, res.status.value, note=note)
         return res
 
     def plan_pose(self, goal: Goal, *, linear: bool = False, speed: float | None = None,
@@ -378,30 +395,69 @@ class Robot:
     # ---- moving -------------------------------------------------------------------------------
     def execute(self, plan: MotionPlan, on_cycle: Callable[[CycleInfo], None] | None = None,
                 record: bool = False) -> StreamResult:
-        """Stream a plan, stopping safely on a stop signal or a fault.
+        """Check a plan, then stream it, stopping safely on a stop signal or a fault.
 
-        SIGINT (Ctrl-C), SIGTERM and SIGHUP (main thread), or a ``KeyboardInterrupt`` raised by
+        The plan is checked first (:meth:`check_plan`); a refused plan writes nothing. SIGINT
+        (Ctrl-C), SIGTERM and SIGHUP (main thread), or a ``KeyboardInterrupt`` raised by
         ``on_cycle``, decelerate the arm within its limits and hold it; a second one during the
         deceleration holds at once. The exit policy is not applied.
 
         Raises:
+            ServoAlarmError, JointLimitError, LimitViolation, InputError: The plan was refused
+                (see :meth:`check_plan`); nothing was written.
             MotionStopped: The motion was stopped; the arm holds its position, and
                 ``stopped_at`` (also in ``details``) says where: the joints read back and the
                 tool pose.
         """
-        q_now = self.joints()
-        gap = np.abs(q_now[self.executor.idx] - plan.start[self.executor.idx])
-        if float(np.max(gap, initial=0.0)) > _START_TOLERANCE:
-            j = self.bus.joint_names[int(np.argmax(gap))]
-            raise InputError(f"the plan starts {float(np.max(gap)):.3f} away from the present "
-                             f"position of joint {j!r}; plan again from the present position")
+        self.check_plan(plan)
         self.stop.clear()
         try:
-            with signals_stop(self.stop):
-                return self.executor.run(plan, self.stop, on_cycle, record)
+            return self.executor.run(plan, self.stop, on_cycle, record)
         except MotionStopped as stopped:
             self._locate(stopped)
             raise
+
+    def check_plan(self, plan: MotionPlan) -> None:
+        """Refuse a plan this robot cannot run as it is (nothing is written to the servos).
+
+        Every sample must lie inside the effective limits (a plan made elsewhere, e.g. by
+        :func:`~armctl.motion.plan_joint_move` with the config's limits or by another robot, is
+        not clipped into them), within the velocity and acceleration limits, and start at the
+        present position (within :attr:`start_tolerance`); no servo may be in the alarm
+        lock-out.
+
+        Raises:
+            ServoAlarmError: A servo reported a hardware alarm and was not cleared (names it,
+                and how to clear it).
+            JointLimitError: A sample outside the effective limits, naming the limit's source.
+            LimitViolation: A sample beyond a velocity or acceleration limit.
+            InputError: A plan for another number of joints, or one that starts elsewhere.
+        """
+        from armctl.servo.arm_bus import ArmBus
+        from armctl.servo.effective_limits import format_joint_value
+
+        if isinstance(self.bus, ArmBus):
+            self.bus.refuse_alarmed("the motion")
+        if plan.start.shape != (self.arm.dof,):
+            raise InputError(f"the plan is for {plan.start.size} joints, arm "
+                             f"{self.arm.name!r} has {self.arm.dof}; plan it with this robot")
+        try:
+            check_trajectory(plan.trajectory, self.limits)
+        except LimitViolation as exc:
+            if exc.kind != "position" or exc.joint not in self.effective.names:
+                raise
+            raise self.effective.error(exc.joint, exc.value, f"{plan.description} at "
+                                       f"t={exc.time:.3f} s: a plan made with other limits; "
+                                       "plan it with this robot") from None
+        gap = np.abs(self.joints() - plan.start) - self.start_tolerance
+        idx = self.executor.idx
+        if float(np.max(gap[idx], initial=0.0)) > 0.0:
+            i = int(idx[int(np.argmax(gap[idx]))])
+            far = format_joint_value(float(gap[i] + self.start_tolerance[i]),
+                                     self.arm.joint_types[i])
+            raise InputError(f"the plan starts {far} away from the present position of joint "
+                             f"{self.arm.joint_names[i]!r}; plan again from the present "
+                             "position")
 
     def _locate(self, stopped: MotionStopped) -> None:
         """Record on ``stopped`` where the arm stopped (joints read back, else the held goal)."""

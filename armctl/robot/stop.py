@@ -1,12 +1,16 @@
 """Stop requests: SIGINT (Ctrl-C), SIGTERM and SIGHUP routed to a controlled stop, and hold.
 
-While a motion streams (:meth:`armctl.robot.Robot.execute` wraps it in :func:`signals_stop`):
+While a motion streams (:meth:`armctl.robot.Executor.run`, which every motion of
+:class:`armctl.robot.Robot` goes through, wraps it in :func:`signals_stop`):
 
 * the **first** stop signal asks for a controlled stop: the streaming loop decelerates from the
   commanded state within the joints' velocity, acceleration and jerk limits, then holds with
   torque on (:class:`~armctl.robot.errors.MotionStopped`);
 * a **second** signal during that deceleration holds at once: the goal becomes the present
   reading (torque stays on), so the arm stops where it is, as fast as the servos can;
+* a signal in the last cycle of a motion, or while the servos settle at its goal, stops it
+  too: the arm holds at the goal and the motion still ends with
+  :class:`~armctl.robot.errors.MotionStopped` (never a reported success after a stop request);
 * signals after the stop has finished do not interrupt anything (see :class:`SignalGuard`).
 
 A stop never leads to the exit policy: parking or releasing happens only when a block or a
@@ -97,7 +101,8 @@ def signals_stop(stop: StopRequest, signals: tuple[int, ...] = STOP_SIGNALS
     """Route the stop signals to ``stop`` while the block runs (main thread only).
 
     When the handlers being replaced belong to a :class:`SignalGuard`, the guard is told that a
-    motion ran, so that a signal arriving after the stop is recorded instead of interrupting.
+    motion ran (and which signal, if any, asked it to stop), so that a signal arriving after the
+    motion is recorded instead of interrupting, and the command skips its exit policy.
 
     Args:
         stop: The request to set.
@@ -119,7 +124,7 @@ def signals_stop(stop: StopRequest, signals: tuple[int, ...] = STOP_SIGNALS
         for h in previous.values():  # before the guard's handlers are back
             guard = getattr(h, "__self__", None)
             if isinstance(guard, SignalGuard):
-                guard.defer()
+                guard.motion_ran(stop)
         for s, h in previous.items():
             signal.signal(s, h)
 
@@ -129,25 +134,40 @@ class SignalGuard:
 
     Until a motion has run, a signal interrupts what is under way (opening the bus, planning)
     by raising :class:`~armctl.robot.errors.SignalInterrupt`: nothing has moved. During a motion
-    :func:`signals_stop` takes over. Once a motion has run, a signal is only recorded
+    :func:`signals_stop` takes over, and hands the guard the signal that stopped the motion, if
+    one did (:attr:`stopped_by`). Once a motion has run, a signal is only recorded
     (:attr:`signum`): it neither cuts the report short nor replaces the outcome of a stop, and
     the caller skips the exit policy.
 
     Use :meth:`installed` around the command (main thread only; elsewhere it does nothing).
+
+    Attributes:
+        signum: The first signal recorded after a motion had run (or after :meth:`defer`).
+        stopped_by: The signal that asked a motion to stop, if one did.
+        moved: Whether a motion ran (the arm may have moved).
     """
 
     def __init__(self) -> None:
         self.signum: int | None = None
+        self.stopped_by: int | None = None
+        self.moved = False
         self.deferring = False
 
     def defer(self) -> None:
         """From now on, record signals instead of interrupting."""
         self.deferring = True
 
+    def motion_ran(self, stop: StopRequest) -> None:
+        """A motion ran: record signals from now on, and the one that stopped it (if any)."""
+        self.moved = True
+        self.deferring = True
+        if self.stopped_by is None and stop.signum is not None:
+            self.stopped_by = stop.signum
+
     @property
     def signalled(self) -> bool:
-        """Whether a signal was recorded (after a motion had run)."""
-        return self.signum is not None
+        """Whether a signal stopped a motion or was recorded after one."""
+        return self.signum is not None or self.stopped_by is not None
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         if not self.deferring:

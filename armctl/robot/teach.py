@@ -21,16 +21,15 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.config.schema import JointRole, JointType
-from armctl.errors import InputError
+from armctl.errors import ConfigError, InputError
 from armctl.motion import AngleUnit, Keyframe, KeyframeProgram, load_keyframes, save_keyframes
 from armctl.robot.session import MoveReport, Robot
 
 if TYPE_CHECKING:
     from armctl.arm import Arm
 
-__all__ = ["ExistingFile", "TeachSession", "appendable", "check_output", "taught_joints"]
-
-Array = npt.NDArray[np.float64]
+__all__ = ["ExistingFile", "TeachSession", "appendable", "check_output", "load_for_append",
+           "taught_joints"]
 
 
 class ExistingFile(Enum):
@@ -49,12 +48,16 @@ def check_output(path: str | Path, existing: ExistingFile) -> Path:
 
     Raises:
         InputError: If the file exists and ``existing`` is :attr:`ExistingFile.REFUSE`, if the
-            path is an arm config or a folder, or if its folder is missing.
+            path is an arm config or a folder, if its name does not end in ``.yaml`` or
+            ``.yml``, or if its folder is missing.
     """
     p = Path(path)
     if p.is_dir():
         raise InputError(f"{p} is a folder; give the keyframe file to write "
                          f"(e.g. {p / 'pick.yaml'})")
+    if p.suffix.lower() not in (".yaml", ".yml"):
+        raise InputError(f"{p}: a keyframe file is YAML: give a name ending in .yaml (e.g. "
+                         f"{p.with_suffix('.yaml')})")
     folder = p.parent if str(p.parent) else Path()
     if not folder.is_dir():
         raise InputError(f"cannot write {p}: the folder {folder} does not exist; create it first")
@@ -100,6 +103,23 @@ def appendable(old: KeyframeProgram, arm: Arm, path: str | Path,
             f"cannot append to {path}: it was taught with calibration {old.calibration}, the "
             f"arm now uses {calibration}; the joint values would not match. Use a new file")
     return replace(old, calibration=old.calibration or calibration)
+
+
+def load_for_append(path: str | Path, arm: Arm) -> KeyframeProgram:
+    """Read a keyframe file that a teach session of ``arm`` is to add to.
+
+    Raises:
+        ConfigError: As :func:`armctl.motion.load_keyframes`; a file of another arm says to
+            teach into a new file.
+    """
+    try:
+        return load_keyframes(path, arm)
+    except ConfigError as exc:
+        if exc.where.keys != ("arm",):
+            raise
+        raise ConfigError(exc.problem, exc.where,
+                          f"teach {arm.name!r} into a new file (without --append); change "
+                          "'arm:' only if the arms are the same") from None
 
 
 def _is_arm_config(path: Path) -> bool:
@@ -153,19 +173,27 @@ class TeachSession:
                                        robot.calibration_hash(), angle_unit=angle_unit,
                                        description=description)
         if existing is ExistingFile.APPEND and self.path.exists():
-            self.program = appendable(load_keyframes(self.path, robot.arm), robot.arm,
+            self.program = appendable(load_for_append(self.path, robot.arm), robot.arm,
                                       self.path, self.program.calibration)
         self.limp = False
         self._t0: float | None = None
         self._lock = threading.Lock()
+        #: Whether the file holds keyframes that must be kept when none are added (appending).
+        self._keep_empty = existing is ExistingFile.APPEND and self.path.exists()
+        #: Whether this session has written the file.
+        self.written = False
 
     # ---- file -------------------------------------------------------------------------------
     def _save(self) -> None:
         save_keyframes(self.program, self.path, self.robot.arm)
+        self.written = True
 
     def start(self, limp: bool = True) -> None:
-        """Write the (empty) file and release the chosen joints for hand-guiding."""
-        self._save()
+        """Release the chosen joints for hand-guiding.
+
+        The file is written with the first keyframe (an existing file is untouched until
+        then), and after every change.
+        """
         if limp:
             self.set_limp(True)
 
@@ -323,6 +351,13 @@ class TeachSession:
                                        solver=solver)
 
     def finish(self) -> KeyframeProgram:
-        """Torque back on, holding the present pose; the file is already saved."""
+        """Torque back on, holding the present pose; the file is already saved.
+
+        A session that ends without keyframes leaves no empty file: a file it wrote (every
+        keyframe undone) is removed, unless it was appended to.
+        """
+        with self._lock:
+            if self.written and not self.program.keyframes and not self._keep_empty:
+                self.path.unlink(missing_ok=True)
         self.set_limp(False)
         return self.program

@@ -22,6 +22,7 @@ from armctl.servo import errors as E
 from armctl.servo.driver import Feedback, ServoBus
 from armctl.servo.mapping import JointMapping
 from armctl.servo.tables import Alarm, Family, Register, table_for
+from armctl.typing import Array
 
 if TYPE_CHECKING:
     from armctl.servo.calibration import Calibration
@@ -29,7 +30,6 @@ if TYPE_CHECKING:
 
 __all__ = ["ArmBus", "JointState"]
 
-Array = npt.NDArray[np.float64]
 SIM_LATENCY_MS = 8.0  # adapter latency assumed in reply timeouts on the simulated bus [ms]
 
 
@@ -244,6 +244,14 @@ class ArmBus:
         """
         return {j.name: self._alarmed[j.servo_id] for j in self.mapping.joints
                 if j.servo_id in self._alarmed}
+
+    def refuse_alarmed(self, what: str) -> None:
+        """Refuse ``what`` while a servo is in the alarm lock-out (before anything is sent).
+
+        Raises:
+            ServoAlarmError: Naming the first alarmed servo, its joint and how to clear it.
+        """
+        self._refuse_alarmed(self._ids, what)
 
     def _refuse_alarmed(self, ids: Sequence[int], what: str) -> None:
         """Raise for the first alarmed servo among ``ids`` (nothing has been sent)."""

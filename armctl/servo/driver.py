@@ -349,8 +349,21 @@ class ServoBus:
         out = self._collect(sdk, [sid], win.length)
         return None if out.result == sdk.SUCCESS else out
 
-    def _exchange(self, sdk: Sdk, sid: int, n: int, send: Callable[[], int]) -> _Attempt:
-        """One request with a fixed reply length ``n`` (barrier first when needed)."""
+    def _exchange(self, sdk: Sdk, sid: int, n: int, send: Callable[[], int],
+                  settle_corrupt: bool = False) -> _Attempt:
+        """One request with a fixed reply length ``n`` (barrier first when needed).
+
+        Args:
+            sdk: The open SDK.
+            sid: The servo.
+            n: The reply's data length [bytes].
+            send: Sends the request; returns the SDK's result code.
+            settle_corrupt: Take a corrupt reply as this request's own reply (its entry is
+                settled, so a retry needs no barrier). Only for requests whose reply carries
+                nothing a stale one could hide (a ping's status, a reboot's); a write's
+                acknowledgement carries the servo's error byte, so :meth:`write` reads back
+                instead.
+        """
         if n in self.ledger.pending(sid):
             failed = self._barrier(sdk, sid)
             if failed is not None:
@@ -359,10 +372,31 @@ class ServoBus:
         if res != sdk.SUCCESS:
             return _Attempt(res, waited=sid)
         out = self._collect(sdk, [sid], n)
-        if out.result == sdk.CORRUPT:
-            # Its reply came, unreadable. An acknowledgement carries no value, so it is taken
-            # as settled (no barrier before the retry); reads keep avoiding the length.
-            self.ledger.unreadable(sid, n)
+        if out.result == sdk.CORRUPT and settle_corrupt:
+            self.ledger.unreadable(sid, n)  # reads keep avoiding the length
+        return out
+
+    def _read_back(self, sdk: Sdk, sid: int, addr: int, data: Sequence[int]) -> _Attempt:
+        """Read back what a write whose acknowledgement came corrupt should have written.
+
+        The corrupt packet settles nothing: it may have been another packet, with the real
+        acknowledgement still to come. The read's length differs from every pending reply
+        length, so that acknowledgement, if it comes, is taken as late; the read's matched
+        reply brings the servo in step and carries its present error byte.
+
+        Returns:
+            The attempt; on success ``value`` is ``(error byte, whether the register holds
+            data)``.
+        """
+        n = len(data)
+        win = self._window(sdk, [sid], addr, n)
+        res = self._send(sdk, [sid], win.length, lambda: sdk.send_read(sid, win.start, win.length))
+        if res != sdk.SUCCESS:
+            return _Attempt(res, waited=sid)
+        out = self._collect(sdk, [sid], win.length)
+        if out.result == sdk.SUCCESS:
+            error, got = out.value[sid]
+            out.value = (error, win.slice(got, addr, n) == list(data))
         return out
 
     def ping(self, sid: int, retries: int | None = None) -> PingResult:
@@ -376,7 +410,7 @@ class ServoBus:
             NoReplyError: If it does not answer.
         """
         def call(sdk: Sdk) -> _Attempt:
-            out = self._exchange(sdk, sid, sdk.ping_size, lambda: sdk.send_ping(sid))
+            out = self._exchange(sdk, sid, sdk.ping_size, lambda: sdk.send_ping(sid), True)
             if out.result == sdk.SUCCESS:
                 out.value = out.value[sid][1]
             return out
@@ -505,11 +539,22 @@ class ServoBus:
             raise InputError(f"servo {sid} {reg.value}: {value} is outside its range "
                              f"[{spec.lo}, {spec.hi}]; nothing was sent")
         data = to_le(encode(spec, value), spec.size)
+        unsure = [False]  # the last acknowledgement came corrupt: was the value written?
 
         def call(sdk: Sdk) -> _Attempt:
+            if unsure[0]:  # never a resend that a late acknowledgement could answer
+                back = self._read_back(sdk, sid, spec.address, data)
+                if back.result != sdk.SUCCESS:
+                    return back
+                error, written = back.value
+                if written:  # done: the read's error byte is the servo's state after it
+                    back.value = error
+                    return back
+                unsure[0] = False  # not written; the line is in step: write again
             out = self._exchange(sdk, sid, 0, lambda: sdk.send_write(sid, spec.address, data))
             if out.result == sdk.SUCCESS:
                 out.value = out.value[sid][0]
+            unsure[0] = out.result == sdk.CORRUPT
             return out
         error = self._transact(f"write {reg.value}={value}", sid, reg.value, call)
         self._check(sid, reg, error, reading=False)
@@ -703,7 +748,7 @@ class ServoBus:
                               fix="power-cycle the servo")
 
         def call(sdk: Sdk) -> _Attempt:
-            out = self._exchange(sdk, sid, 0, lambda: sdk.send_reboot(sid))
+            out = self._exchange(sdk, sid, 0, lambda: sdk.send_reboot(sid), True)
             return _Attempt(sdk.SUCCESS) if out.result in (sdk.TIMEOUT, sdk.CORRUPT) else out
         self._transact("reboot", sid, None, call, retries=0)
         deadline = time.monotonic() + 0.5

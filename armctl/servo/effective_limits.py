@@ -34,6 +34,7 @@ from armctl.config.schema import ArmSpec, JointType
 from armctl.errors import ConfigError, JointLimitError, KeyPath
 from armctl.servo.mapping import JointMap, JointMapping, LimitSource, calibrated_range
 from armctl.servo.tables import Family, Register, table_for
+from armctl.typing import Array
 
 if TYPE_CHECKING:
     from armctl.arm import Arm
@@ -53,7 +54,6 @@ __all__ = [
     "read_position_limits",
 ]
 
-Array = npt.NDArray[np.float64]
 
 #: Safety margin taken off the measured bounds (calibration, servo registers) [servo tick]:
 #: 8 ticks of a 4096-tick servo are 0.70 deg of servo travel (0.0123 rad at gear ratio 1).
@@ -113,6 +113,8 @@ class JointLimits:
             apply, else ``None``.
         lower: The effective lower bound.
         upper: The effective upper bound.
+        margin: The safety margin of :data:`MARGIN_TICKS` servo ticks in joint units [rad]/[m]
+            (0 for a joint without a servo).
     """
 
     name: str
@@ -124,6 +126,7 @@ class JointLimits:
     register_ticks: tuple[int, int] | None
     lower: LimitBound
     upper: LimitBound
+    margin: float = 0.0
 
     def bound(self, value: float) -> LimitBound:
         """The bound that ``value`` crosses (the nearer one for a value inside)."""
@@ -302,10 +305,12 @@ def effective_limits(spec: ArmSpec, calibration: Calibration | None = None,
     for js in spec.actuated_joints:
         lo, hi = js.limits.lower, js.limits.upper
         w = js.where
-        lower = LimitBound(lo, LimitSource.CONFIG, _config_origin(w, "lower"), _CONFIG_FIX)
-        upper = LimitBound(hi, LimitSource.CONFIG, _config_origin(w, "upper"), _CONFIG_FIX)
+        fix = LimitSource.CONFIG.advice()
+        lower = LimitBound(lo, LimitSource.CONFIG, _config_origin(w, "lower"), fix)
+        upper = LimitBound(hi, LimitSource.CONFIG, _config_origin(w, "upper"), fix)
         jm = maps.get(js.name)
         cal_range = reg_range = reg_ticks = None
+        margin = 0.0
         if jm is not None:
             margin = MARGIN_TICKS / abs(jm.to_ticks(1.0) - jm.to_ticks(0.0))
             jc = calibration.joints.get(js.name) if calibration is not None else None
@@ -329,12 +334,8 @@ def effective_limits(spec: ArmSpec, calibration: Calibration | None = None,
                 f"{upper.source.value} nothing above {format_joint_value(upper.value, js.type)}",
                 w, f"{lower.fix} {upper.fix}" if lower.fix != upper.fix else lower.fix)
         out.append(JointLimits(js.name, js.type, jm.servo_id if jm else None, (lo, hi),
-                               cal_range, reg_range, reg_ticks, lower, upper))
+                               cal_range, reg_range, reg_ticks, lower, upper, margin))
     return EffectiveLimits(spec.name, tuple(out))
-
-
-_CONFIG_FIX = ("Choose a value inside the limits, or widen the joint's limits in the arm config "
-               "if the joint can really go further.")
 
 
 def _config_origin(where: KeyPath, side: str) -> str:
@@ -357,8 +358,7 @@ def _tighten(lower: LimitBound, upper: LimitBound, rng: tuple[float, float], mar
 def _calibration_bounds(rng: tuple[float, float], jtype: JointType, file: Path | None
                         ) -> tuple[Any, Any]:
     where = f" ({file})" if file is not None else ""
-    fix = ("Choose a value inside the limits, or re-run 'armctl calibrate CONFIG' and sweep "
-           "the joint further (to its mechanical stop) to use more travel.")
+    fix = LimitSource.CALIBRATION.advice()
 
     def make(side: int) -> Any:
         swept = format_joint_value(rng[side], jtype)
@@ -408,8 +408,7 @@ def _register_bounds(jm: JointMap, regs: PositionLimitRegisters, rng: tuple[floa
         origin = (f"servo {jm.servo_id}'s own {label} register (address "
                   f"{table.spec(reg).address}) = {ticks} ticks, that is {at}, less a safety "
                   f"margin of {MARGIN_TICKS} servo ticks")
-        fix = (f"Choose a value inside the limits, or, to use more travel, write a wider value to "
-               f"that register with torque off (an EEPROM register), e.g. "
+        fix = (f"{LimitSource.SERVO_REGISTER.advice()} It is an EEPROM register: e.g. "
                f"ArmBus.write_eeprom({jm.servo_id}, [(Register.{reg.name}, {full})]) in Python "
                "or the servo maker's setup tool; then check the config's limits still fit the "
                "arm.")

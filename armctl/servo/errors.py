@@ -8,7 +8,6 @@ answered, and says how to fix it. ``details`` carries the same facts as data (pr
 from __future__ import annotations
 
 import errno
-from typing import Any
 
 from armctl.errors import BusError
 
@@ -42,6 +41,8 @@ class ServoBusError(BusError):
         register: The register concerned, when one is.
         answer: What the servo answered (decoded), when it answered.
         fix: How to fix it.
+
+    ``details``: ``port``, ``servo_id``, ``register``, ``answer`` and ``problem``.
     """
 
     #: What joins the location and the problem ("port /dev/ttyACM0: no such port").
@@ -65,13 +66,8 @@ class ServoBusError(BusError):
             text += f" (servo answered: {answer})"
         if fix:
             text += f"\n  fix: {fix}"
-        super().__init__(text)
-
-    @property
-    def details(self) -> dict[str, Any]:
-        """The facts of the error as data."""
-        return {"port": self.port, "servo_id": self.servo_id, "register": self.register,
-                "answer": self.answer, "problem": self.problem}
+        super().__init__(text, {"port": port, "servo_id": servo_id, "register": register,
+                                "answer": answer, "problem": problem})
 
 
 class PortError(ServoBusError):

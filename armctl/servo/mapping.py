@@ -49,14 +49,19 @@ class LimitSource(Enum):
     SERVO_REGISTER = "servo_register"  # the servo's own Min/Max Position Limit register
 
     def advice(self) -> str:
-        """How to allow more travel on a side bounded by this source (one sentence)."""
+        """What to do about a value beyond a side bounded by this source (one sentence).
+
+        The one place for this advice: the mapping's own check and the effective limits
+        (:mod:`armctl.servo.effective_limits`, which adds the register's name and value) use it.
+        """
         if self is LimitSource.CALIBRATION:
-            return ("This limit is the calibrated range: re-run 'armctl calibrate CONFIG' and "
+            return ("Choose a value inside the limits, or re-run 'armctl calibrate CONFIG' and "
                     "sweep the joint further (to its mechanical stop) to use more travel.")
         if self is LimitSource.SERVO_REGISTER:
-            return ("This limit is the servo's own position limit register: write a wider "
-                    "value to it (torque off) to use more travel.")
-        return "Choose a value inside the limits or widen them in the arm config."
+            return ("Choose a value inside the limits, or write a wider value to the servo's "
+                    "own position limit register (torque off) to use more travel.")
+        return ("Choose a value inside the limits, or widen them in the arm config if the joint "
+                "can really go further.")
 
 
 @dataclass(frozen=True)
@@ -135,7 +140,8 @@ class JointMap:
             if q != q:  # NaN
                 source = LimitSource.CONFIG
             raise JointLimitError(self.name, float(q), self.lower, self.upper, context,
-                                  advice=source.advice())
+                                  advice=f"That limit is the {source.value.replace('_', ' ')}'s. "
+                                  + source.advice())
 
     def goal_ticks(self, q: float) -> int:
         """The goal position [tick] to send for ``q`` (limits checked first).

@@ -18,9 +18,13 @@ length. :class:`ReplyLedger` removes that ambiguity:
   no reply of that length is pending for the servo; otherwise the caller first sends a
   *barrier*: a read with a distinguishable length whose matched reply clears the servo.
 
-An entry is kept until its reply arrives (late) or a later reply of the servo is matched. When
-a servo has too many (no read length is left free), the driver drains the line until it stays
-quiet and forgets them (:meth:`ReplyLedger.matched`).
+An entry is kept until its reply arrives (late) or a later reply of the servo is matched. A
+corrupt packet settles nothing (it may have been another packet, the real reply still to come),
+except for replies that carry nothing a stale one could hide (a ping's, a reboot's:
+:meth:`ReplyLedger.unreadable`); after a corrupt write acknowledgement the driver reads the
+register back instead of writing again. When a servo has too many entries (no read length is
+left free), the driver drains the line until it stays quiet and forgets them
+(:meth:`ReplyLedger.matched`).
 """
 
 from __future__ import annotations
@@ -80,7 +84,12 @@ class ReplyLedger:
         self._pending.pop(sid, None)
 
     def unreadable(self, sid: int, n: int) -> None:
-        """The newest request to ``sid`` (reply length ``n``) got a corrupt reply: none follows."""
+        """The newest request to ``sid`` (reply length ``n``) got a corrupt reply: none follows.
+
+        Only for requests whose reply carries nothing a stale one could hide (see
+        :meth:`armctl.servo.driver.ServoBus._exchange`): the corrupt packet may have been
+        another one, and the real reply may still come and answer the next such request.
+        """
         entries = self._pending.get(sid, [])
         for i in range(len(entries) - 1, -1, -1):
             if entries[i] == n:

@@ -125,7 +125,7 @@ def test_a_signal_mid_motion_stops_reports_and_holds(sim: Sim, sig: str) -> None
     assert "Traceback" not in err
     assert f"stopped by {'Ctrl-C (SIGINT)' if sig == 'SIGINT' else sig}" in err
     assert "decelerated and holds its position" in err
-    assert "--exit-policy park not applied" in err
+    assert "exit policy 'park' not applied" in err
     assert re.search(r"tool xyz \[.*\] m, rpy \[.*\] deg", out)
     check_holds(sim, stopped_table(out))
 
@@ -204,6 +204,14 @@ def record_close(monkeypatch: pytest.MonkeyPatch, signum: int | None = None) -> 
     return seen
 
 
+def check_held_at_the_goal(seen: list[Any], goal: list[float]) -> None:
+    """The bus closed once, holding (not parked), with the arm at ``goal``."""
+    (policy, sim), = seen
+    assert policy is ExitPolicy.HOLD
+    q = sim.joint_positions()
+    assert np.allclose([q[n] for n in JOINTS], goal, atol=0.02)  # at the goal, not parked
+
+
 @pytest.mark.usefixtures("own_handlers")
 @pytest.mark.parametrize("name", ["SIGINT", "SIGTERM"])
 def test_a_signal_after_the_stop_keeps_the_stops_exit_code(
@@ -227,8 +235,9 @@ def test_a_signal_after_the_stop_keeps_the_stops_exit_code(
 
 
 @pytest.mark.usefixtures("own_handlers")
-def test_a_signal_after_a_finished_motion_skips_the_exit_policy(
+def test_a_signal_after_a_finished_motion_exits_5_and_skips_the_exit_policy(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """The arm has moved: 5 (it holds), not 143, which says that nothing moved."""
     goal = [0.2, -0.2, 0.2, 0.0, 0.0, 0.0]
     done = cli_motion._Progress.done
 
@@ -240,14 +249,11 @@ def test_a_signal_after_a_finished_motion_skips_the_exit_policy(
     seen = record_close(monkeypatch)
     code = main(["move-joints", "so101", *map(str, goal), "--exit-policy", "park", "--json"])
     out, err = capsys.readouterr()
-    assert code == 143, err
+    assert code == 5, err
     assert json.loads(out)["ok"] is True  # the report of the finished move is complete
     assert "SIGTERM after the motion had finished" in err
-    assert "--exit-policy park not applied" in err
-    (policy, sim), = seen
-    assert policy is ExitPolicy.HOLD
-    q = sim.joint_positions()
-    assert np.allclose([q[n] for n in JOINTS], goal, atol=0.02)  # at the goal, not parked
+    assert "exit policy 'park' not applied" in err
+    check_held_at_the_goal(seen, goal)
 
 
 @pytest.mark.usefixtures("own_handlers")
@@ -279,3 +285,67 @@ def test_signal_handlers_are_restored_after_a_command(capsys: pytest.CaptureFixt
     assert main(["move-joints", "so101", "0.1", "0", "0", "0", "0", "0"]) == 0
     assert {s: signal.getsignal(s) for s in before} == before
     capsys.readouterr()
+
+
+# ---- a signal as the motion reaches its goal --------------------------------------------------
+@pytest.mark.usefixtures("own_handlers")
+def test_a_signal_in_the_last_cycle_holds_at_the_goal_and_exits_5(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    goal = [0.2, -0.2, 0.2, 0.0, 0.0, 0.0]
+
+    def progress(self: Any, info: Any) -> None:
+        if info.t >= info.duration:  # the last cycle
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    monkeypatch.setattr(cli_motion._Progress, "__call__", progress)
+    seen = record_close(monkeypatch)
+    code = main(["move-joints", "so101", *map(str, goal), "--exit-policy", "park"])
+    out, err = capsys.readouterr()
+    assert code == 5, err
+    assert "stopped by SIGTERM as the motion reached its goal; the arm holds there" in err
+    assert "the arm holds here" in out  # where it stopped, as for any stop
+    assert "exit policy 'park' not applied" in err
+    check_held_at_the_goal(seen, goal)
+
+
+@pytest.mark.usefixtures("own_handlers")
+def test_a_signal_while_the_servos_settle_holds_and_exits_5(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    from armctl.robot import Executor
+
+    goal = [0.2, -0.2, 0.2, 0.0, 0.0, 0.0]
+    original = Executor._settle
+    sent: list[int] = []
+
+    def settle(self: Executor, *args: Any, **kwargs: Any) -> Any:
+        if not sent:  # the end of the motion: the servos settle at the goal
+            sent.append(signal.SIGINT)
+            os.kill(os.getpid(), signal.SIGINT)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Executor, "_settle", settle)
+    seen = record_close(monkeypatch)
+    code = main(["move-joints", "so101", *map(str, goal), "--exit-policy", "park", "--json"])
+    out, err = capsys.readouterr()
+    assert sent and code == 5, err
+    error = json.loads(out)["error"]
+    assert error["details"]["reason"] == "user" and error["details"]["signal"] == "SIGINT"
+    assert "reached its goal" in error["message"]
+    check_held_at_the_goal(seen, goal)
+
+
+@pytest.mark.usefixtures("own_handlers")
+def test_a_signal_after_a_dry_run_gives_128_plus_its_number(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """Nothing moved: the signal's own code, as before a motion."""
+    done = cli_motion._Progress.done
+
+    def finished(self: Any) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        done(self)
+
+    monkeypatch.setattr(cli_motion._Progress, "done", finished)
+    code = main(["move-joints", "so101", *map(str, GOAL), "--dry-run"])
+    err = capsys.readouterr().err
+    assert code == 143, err
+    assert "interrupted by SIGTERM; nothing moved" in err

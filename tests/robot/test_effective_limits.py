@@ -390,3 +390,23 @@ def test_live_view_arm_uses_the_effective_limits(narrow: Path) -> None:
     shown = view_arm(arm, None)
     assert shown.upper[1] == pytest.approx(CAL_HALF - MARGIN)
     assert shown.lower[2] == -1.6
+
+
+def test_ik_answers_inside_the_calibrated_limits(narrow: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """Without the bus, ``armctl ik`` uses the calibration as the motion commands do."""
+    cfg = load_arm(narrow)
+    target = cfg.fk(np.array([0.2, 1.3, -0.4, 0.3, 0.0, 0.01]))[:3, 3]
+    code = main(["ik", str(narrow), "--xyz", *map(str, target), "--from", "0.2", "0.95", "-0.4",
+                 "0.3", "0", "0.01", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    if code == 0:  # a solution inside the calibrated range, or none (never one beyond it)
+        q = np.array([out["joints"][n] for n in cfg.joint_names])
+        assert q[1] <= CAL_HALF - MARGIN + 1e-9, q
+    else:
+        assert code == 3 and not out["ok"]
+    # a start beyond the calibrated range is refused, naming the calibration
+    code = main(["ik", str(narrow), "--xyz", *map(str, target), "--from", "0.2", "1.3", "-0.4",
+                 "0.3", "0", "0.01"])
+    err = capsys.readouterr().err
+    assert code == 2 and "calibrat" in err

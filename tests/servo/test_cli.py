@@ -178,8 +178,9 @@ def test_status_live_table_stops_on_ctrl_c(capsys: pytest.CaptureFixture[str],
             raise KeyboardInterrupt
 
     monkeypatch.setattr(cli_bus.time, "sleep", fake_sleep)
-    assert main(["status", str(DATA / "so_sim.yaml"), "--interval", "0.5"]) == 0
-    out = capsys.readouterr().out
+    assert main(["status", str(DATA / "so_sim.yaml"), "--interval", "0.5"]) == 130
+    out, err = capsys.readouterr()
+    assert "armctl: interrupted by SIGINT" in err and "Traceback" not in err
     frames = out.split("\x1b[H\x1b[2J")[1:]  # each refresh clears the screen first
     assert len(frames) == 2 and "Ctrl-C" in out and calls == [0.5, 0.5]
     assert all("shoulder_pan" in f and "effective" in f for f in frames)

@@ -1,7 +1,7 @@
 """Wire bytes of the real SDKs and of the simulated servos against the manuals' examples.
 
-Vectors: ROBOTIS e-Manual Protocol 2.0 examples and SDK-FT 1.0.0 captures, as listed in the
-servo bus reference (Dynamixel section 1.8, Feetech section 2.9).
+Vectors: the examples of the ROBOTIS e-Manual's Protocol 2.0 page (CRCs checked) and captures
+of the Feetech SDK (SDK-FT 1.0.0, ``scservo_sdk``).
 """
 
 from __future__ import annotations
