@@ -2,12 +2,38 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from armctl_testpaths import DATA
 
+from armctl.clock import SimulatedClock, set_default_clock
+
 
 @pytest.fixture
 def data_dir() -> Path:
     return DATA
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line(
+        "markers", "realtime: runs motion in wall-clock time (an end-to-end check of the real "
+        "time base); without it the robot tests run in simulated time")
+
+
+@pytest.fixture
+def simulated_time(request: pytest.FixtureRequest) -> Iterator[SimulatedClock | None]:
+    """Everything the test opens (robot, executor, simulated bus) runs on one simulated clock.
+
+    A test marked ``realtime`` keeps the wall clock (the fixture yields ``None`` then).
+    """
+    if request.node.get_closest_marker("realtime") is not None:
+        yield None
+        return
+    clock = SimulatedClock()
+    previous = set_default_clock(clock)
+    try:
+        yield clock
+    finally:
+        set_default_clock(previous)

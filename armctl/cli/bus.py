@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import select
 import sys
 import time
 from typing import TYPE_CHECKING, Any
@@ -321,16 +320,16 @@ def cmd_sim(args: argparse.Namespace) -> int:
     Every stdin line goes to :class:`~armctl.servo.sim.console.SimConsole`; a bad line prints
     an error line and the simulator (and its pty) carries on.
     """
-    from armctl.servo import SimulatedBus
+    from armctl.cli._sim_loop import serve_console
+    from armctl.servo import simulated_bus
     from armctl.servo.calibration import Calibration, calibration_path
-    from armctl.servo.sim.console import SimConsole
 
     spec = _spec(args)
     assert spec.bus is not None  # _spec checked it  # mypy.
     cal = None
     if spec.file is not None and spec.bus.port == "sim" and calibration_path(spec).exists():
         cal = Calibration.load(calibration_path(spec))
-    sim = SimulatedBus.from_spec(spec, cal, wire_timing=args.wire_timing)
+    sim = simulated_bus(spec, cal, wire_timing=args.wire_timing)
     with sim:
         if args.scenario:
             sim.load_scenario(args.scenario)
@@ -340,52 +339,17 @@ def cmd_sim(args: argparse.Namespace) -> int:
              f"{spec.bus.baudrate} baud (servo ids "
              f"{', '.join(str(s.id) for s in sim.servos)}); type 'help' for commands")
         sys.stdout.flush()
-        console = SimConsole(sim)
-        while True:
-            try:
-                line = sys.stdin.readline()
-            except KeyboardInterrupt:  # the normal way to stop the simulator
-                return 0
-            if not line:
-                return 0
-            try:
-                reply = console.execute(line)
-            except Exception as exc:  # a bug must not take the pty away from its clients
-                reply = None
-                print(f"error: {type(exc).__name__}: {exc} (the simulator goes on)")
-            if reply is not None and reply.text:
-                print(reply.text)
-            sys.stdout.flush()
-            if reply is not None and reply.quit:
-                return 0
+        return serve_console(sim)
 
 
 # ---- calibration ---------------------------------------------------------------------------------
-def _wait_enter(prompt: str, while_waiting: Any = None, period: float = 0.02) -> None:
-    """Print ``prompt`` and wait for Enter, calling ``while_waiting`` every ``period`` [s].
-
-    Raises:
-        InputError: When the input is closed (end of file) instead: the wizard needs Enter
-            presses, so nothing is measured or written.
-    """
-    print(prompt, flush=True)
-    while True:
-        if while_waiting is not None:
-            while_waiting()
-        ready, _, _ = select.select([sys.stdin], [], [], period)
-        if ready:
-            if not sys.stdin.readline():
-                raise InputError("the input was closed (end of file) while the calibration "
-                                 "waited for Enter; nothing was written. Run 'armctl "
-                                 "calibrate' in a terminal and press Enter at each step")
-            return
-
-
 def cmd_calibrate(args: argparse.Namespace) -> int:
     """Interactive calibration: reference pose, range sweep, offsets, file."""
     from pathlib import Path
 
-    from armctl.servo.calibration import Calibrator, calibration_path
+    from armctl.cli._calibrate_wizard import run_wizard
+    from armctl.servo.calibrate import Calibrator
+    from armctl.servo.calibration import calibration_path
 
     args.no_calibration = True
     spec = _spec(args)
@@ -400,12 +364,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     ab = _arm_bus(args)
     with ab:
         cal = Calibrator(ab, reference)
-        cal.start()
-        _wait_enter("Torque is off. Move the arm to the reference pose "
-                    f"({args.reference}) and press Enter.")
-        cal.capture_reference()
-        _wait_enter("Move every joint slowly through its full range, then back to the "
-                    "reference pose, and press Enter.", cal.sample)
+        run_wizard(cal, args.reference)
         result = cal.finish()
     path = result.save(out)
     rows = [[n, str(j.servo_id), fmt(j.zero_tick, 0), fmt(j.min_tick, 0), fmt(j.max_tick, 0),

@@ -7,6 +7,7 @@ from enum import Enum
 
 from armctl.config.source import Section
 from armctl.errors import KeyPath
+from armctl.servo_tables import TABLES, Family
 
 __all__ = ["BusSpec", "Protocol", "ServoSpec", "parse_bus"]
 
@@ -19,6 +20,11 @@ class Protocol(Enum):
     DYNAMIXEL = "dynamixel"  # Dynamixel Protocol 2.0
     DYNAMIXEL1 = "dynamixel1"  # Dynamixel Protocol 1.0
     FEETECH = "feetech"  # Feetech SCS/STS
+
+    @property
+    def family(self) -> Family:
+        """The servo family that speaks this protocol."""
+        return Family.FEETECH if self is Protocol.FEETECH else Family.DYNAMIXEL
 
 
 @dataclass(frozen=True)
@@ -76,8 +82,6 @@ def _model(s: Section, protocol: Protocol) -> str:
     """
     import difflib
 
-    from armctl.servo.tables import TABLES, Family  # the servo layer's tables, loaded lazily
-
     raw = s.string("model")
     model = raw.lower()
     table = TABLES.get(model)
@@ -87,8 +91,7 @@ def _model(s: Section, protocol: Protocol) -> str:
         fix = ((f"did you mean {close[0]!r}? " if close else "")
                + f"known models: {', '.join(known)}")
         raise s.error(f"unknown servo model {raw!r}", "model", fix=fix)
-    family = Family.FEETECH if protocol is Protocol.FEETECH else Family.DYNAMIXEL
-    if table.family is not family:
+    if table.family is not protocol.family:
         raise s.error(f"{raw!r} is a {table.family.value} servo but the bus protocol is "
                       f"{protocol.value!r}", "model",
                       fix="fix the model, or the bus's 'protocol'")

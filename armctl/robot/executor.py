@@ -19,7 +19,6 @@ from __future__ import annotations
 import logging
 import math
 import signal
-import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -27,6 +26,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
+from armctl.clock import Clock, default_clock
 from armctl.config.schema import JointRole, JointType
 from armctl.errors import ArmctlError, BusError
 from armctl.kinematics.model import KinematicModel
@@ -111,7 +111,7 @@ class StreamStats:
     Attributes:
         rate_hz: Target loop rate [Hz].
         cycles: Cycles run.
-        elapsed: Wall time from the first to the last cycle start [s].
+        elapsed: Time on the executor's clock from the first to the last cycle start [s].
         jitter_mean: Mean lateness of cycle starts [s].
         jitter_p99: 99th percentile lateness [s].
         jitter_max: Largest lateness [s].
@@ -191,6 +191,8 @@ class Executor:
         explain_short: Called with a joint's name and goal [rad]/[m] when it did not arrive;
             returns a likely cause to add to the error (or ``None``), e.g. from the servo's
             registers.
+        clock: Time base of the loop (default :func:`~armctl.clock.default_clock`); give it the
+            simulated bus's :class:`~armctl.clock.SimulatedClock` to stream in simulated time.
 
     Gripper joints are not held to the arrival tolerance: a gripper closing on an object
     stops short of its goal by design.
@@ -200,8 +202,10 @@ class Executor:
                  rate_hz: float = 50.0, max_tracking_error: float = 0.2,
                  settle_tolerance: float = 0.01, settle_timeout: float = 1.0,
                  lost_after: int = 3, settle_tolerance_linear: float = 0.001,
-                 explain_short: Callable[[str, float], str | None] | None = None):
+                 explain_short: Callable[[str, float], str | None] | None = None,
+                 clock: Clock | None = None):
         self.bus = bus
+        self.clock = clock if clock is not None else default_clock()
         self.model = model
         self.limits = limits
         self.rate_hz = float(rate_hz)
@@ -350,14 +354,13 @@ class Executor:
         missed_reads = 0
         failure: BaseException | None = None  # raised by on_cycle
         frozen = False  # a second stop request: held at once
-        t0 = last_start = time.perf_counter()
+        clock = self.clock
+        t0 = last_start = clock.now()
         k = 0
         while True:
             deadline = t0 + k * dt
-            now = time.perf_counter()
-            if now < deadline:
-                time.sleep(deadline - now)
-            start = time.perf_counter()
+            clock.sleep_until(deadline)
+            start = clock.now()
             last_start = start
             late = start - deadline
             if late > dt:
@@ -408,7 +411,7 @@ class Executor:
                     abort, blind = exc, lost
                     k += 1
                     continue
-            io.append(time.perf_counter() - start)
+            io.append(clock.now() - start)
             err = np.abs(meas - (prev_cmd if prev_cmd is not None else cmd))
             worst = np.maximum(worst, err)
             prev_cmd = cmd
@@ -511,7 +514,8 @@ class Executor:
                 (reason ``NOT_REACHED``), naming the joint, its servo, how far short it is and
                 a likely cause.
         """
-        t0 = time.perf_counter()
+        clock = self.clock
+        t0 = clock.now()
         dt = 1.0 / self.rate_hz
         meas = np.full_like(goal, np.nan)
         misses = 0
@@ -523,19 +527,19 @@ class Executor:
                 misses += 1
                 if exc.reason is not StopReason.LOST_SERVO or misses >= self.lost_after:
                     raise self._settle_failed(exc, goal, plan, at, require) from None
-                time.sleep(dt)
+                clock.sleep_until(clock.now() + dt)
                 continue
             if stop is not None and stop.requested:
-                return time.perf_counter() - t0, meas
+                return clock.now() - t0, meas
             short = (np.abs(meas - goal) > self.arrival_tolerance) & self.must_arrive
             if goal.size == 0 or not short.any():
-                return time.perf_counter() - t0, meas
-            if time.perf_counter() - t0 > self.settle_timeout:
+                return clock.now() - t0, meas
+            if clock.now() - t0 > self.settle_timeout:
                 if require:
-                    raise self._not_reached(goal, meas, short, time.perf_counter() - t0,
+                    raise self._not_reached(goal, meas, short, clock.now() - t0,
                                             self._full(plan, goal), at)
-                return time.perf_counter() - t0, meas
-            time.sleep(dt)
+                return clock.now() - t0, meas
+            clock.sleep_until(clock.now() + dt)
             try:  # nothing to a servo that reported an alarm: the next read names it
                 self._write(self._full(plan, goal), skip_alarmed=True)
             except _Abort as exc:
@@ -635,11 +639,12 @@ class Executor:
         Returns:
             The time it took [s] and the last reading (the goal when the servos cannot be read).
         """
-        t0 = time.perf_counter()
+        clock = self.clock
+        t0 = clock.now()
         dt = 1.0 / self.rate_hz
         last = goal
-        while time.perf_counter() - t0 < self.settle_timeout:
-            time.sleep(dt)
+        while clock.now() - t0 < self.settle_timeout:
+            clock.sleep_until(clock.now() + dt)
             try:
                 meas = np.asarray(self.bus.read_joints(), dtype=float)
             except BusError:
@@ -648,7 +653,7 @@ class Executor:
             last = meas
             if still and float(np.max(np.abs(meas - goal), initial=0.0)) <= self.settle_tolerance:
                 break
-        return time.perf_counter() - t0, last
+        return clock.now() - t0, last
 
     def hold(self) -> Array:
         """Hold the present position: goal = present, then torque on (never a jump).

@@ -14,7 +14,7 @@ Example::
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.arm import Arm, load_arm
+from armctl.clock import Clock, default_clock
 from armctl.config.motion import ExitPolicy, MotionSpec
 from armctl.config.schema import JointRole, JointType
 from armctl.errors import ArmctlError, InputError
@@ -46,7 +47,6 @@ from armctl.robot.unreachable import unreachable
 from armctl.typing import Array
 
 if TYPE_CHECKING:
-    from armctl.robot.teach import TeachSession
     from armctl.servo.calibration import Calibration
     from armctl.servo.effective_limits import EffectiveLimits
 
@@ -105,6 +105,8 @@ class Robot:
         exit_policy: Exit policy (overrides ``motion.exit_policy``).
         effective: The effective joint limits; by default they are built from the config, the
             bus's calibration and the servos' position limit registers (read from the bus).
+        clock: Time base of motions and teaching (default
+            :func:`~armctl.clock.default_clock`); a simulated bus must share it.
 
     Attributes:
         arm: The arm with the effective limits as its position limits: every planner, IK
@@ -115,8 +117,9 @@ class Robot:
 
     def __init__(self, arm: Arm, bus: JointBus, motion: MotionSpec | None = None, *,
                  speed: float | None = None, exit_policy: ExitPolicy | None = None,
-                 effective: EffectiveLimits | None = None):
+                 effective: EffectiveLimits | None = None, clock: Clock | None = None):
         self.config_arm = arm
+        self.clock = clock if clock is not None else default_clock()
         self.bus = bus
         self.effective = effective if effective is not None else _effective_limits(arm, bus)
         self.arm = self.effective.apply(arm)
@@ -126,7 +129,7 @@ class Robot:
         self.limits = MotionLimits.from_model(self.arm)
         self.executor = Executor(bus, self.arm, self.limits, self.motion.rate_hz,
                                  self.motion.max_tracking_error,
-                                 explain_short=self._short_cause)
+                                 explain_short=self._short_cause, clock=self.clock)
         self.stop = StopRequest()
         prismatic = np.array([t is JointType.PRISMATIC for t in self.arm.joint_types], dtype=bool)
         margin = np.array([j.margin for j in self.effective.joints])
@@ -146,7 +149,8 @@ class Robot:
     # ---- life cycle -------------------------------------------------------------------------
     @classmethod
     def open(cls, config: str | Path | Arm, *, speed: float | None = None,
-             exit_policy: ExitPolicy | None = None, hold: bool = True) -> Robot:
+             exit_policy: ExitPolicy | None = None, hold: bool = True,
+             clock: Clock | None = None) -> Robot:
         """Load an arm, open its bus and hold the present pose with torque on.
 
         Args:
@@ -156,6 +160,9 @@ class Robot:
             hold: Switch torque on, holding the present pose (no jump). Without it nothing is
                 written until the first motion, which holds the present pose first: a plan can
                 be checked (and refused) before torque comes on.
+            clock: Time base of the motions and, for ``port: sim``, of the simulated servos
+                (default :func:`~armctl.clock.default_clock`); a
+                :class:`~armctl.clock.SimulatedClock` runs them in simulated time.
 
         Raises:
             ConfigError: Bad config or calibration file.
@@ -167,9 +174,10 @@ class Robot:
 
         arm = config if isinstance(config, Arm) else load_arm(config)
         calibration = _calibration(arm)
-        bus = ArmBus.from_spec(arm.spec, calibration).open()
+        clock = clock if clock is not None else default_clock()
+        bus = ArmBus.from_spec(arm.spec, calibration, clock=clock).open()
         try:
-            robot = cls(arm, bus, speed=speed, exit_policy=exit_policy)
+            robot = cls(arm, bus, speed=speed, exit_policy=exit_policy, clock=clock)
             robot._owns_bus = True
             if hold:
                 robot.hold()
@@ -486,17 +494,33 @@ class Robot:
     def move_to_pose(self, goal: Goal | None = None, *, xyz: npt.ArrayLike | None = None,
                      linear: bool = False, speed: float | None = None, solver: str = "auto",
                      dry_run: bool = False,
-                     on_cycle: Callable[[CycleInfo], None] | None = None) -> MoveReport:
+                     on_cycle: Callable[[CycleInfo], None] | None = None,
+                     on_plan: Callable[[MotionPlan, IKResult | None], bool] | None = None
+                     ) -> MoveReport:
         """Move the tool to a goal (or to position ``xyz`` [m]); report the reached pose.
 
         The reached pose is FK of the joints read back after the servos settled.
+
+        Args:
+            goal: The goal (its frame, position and orientation or direction).
+            xyz: Instead of ``goal``: a position of the tool [m].
+            linear: Move the tool along a straight line (else a joint-space move to the IK
+                solution).
+            speed: Speed factor of the joint limits (default: the robot's).
+            solver: IK solver name.
+            dry_run: Plan only; nothing moves.
+            on_cycle: Called every control cycle while the plan streams.
+            on_plan: Called with the checked plan and the IK result (``None`` for a straight
+                line) before anything moves; when it returns ``False`` nothing moves and the
+                report is that of a dry run (e.g. to show the plan first, or to skip a plan
+                that does not move the arm).
         """
         if goal is None:
             if xyz is None:
                 raise InputError("give a goal or xyz")
             goal = PositionGoal(np.asarray(xyz, dtype=float))
         plan, ik = self.plan_pose(goal, linear=linear, speed=speed, solver=solver)
-        if dry_run:
+        if dry_run or (on_plan is not None and not on_plan(plan, ik)):
             return MoveReport(plan, None, ik)
         res = self.execute(plan, on_cycle)
         reached = self.arm.fk(res.final, goal.frame)
@@ -575,17 +599,6 @@ class Robot:
             return MoveReport(plan)
         res = self.execute(plan, on_cycle)
         return MoveReport(plan, res, reached=self.arm.fk(res.final))
-
-    def teach(self, path: str | Path, release: Sequence[str] | None = None) -> TeachSession:
-        """A started teach session writing ``path`` (the released joints go limp).
-
-        See :class:`armctl.robot.teach.TeachSession`; call ``finish()`` to stiffen again.
-        """
-        from armctl.robot.teach import TeachSession
-
-        session = TeachSession(self, path, release)
-        session.start()
-        return session
 
     @property
     def gripper_joints(self) -> tuple[str, ...]:

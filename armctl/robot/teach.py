@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from collections.abc import Sequence
 from dataclasses import replace
 from enum import Enum
@@ -20,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from armctl.clock import Clock
 from armctl.config.schema import JointRole, JointType
 from armctl.errors import ConfigError, InputError
 from armctl.motion import AngleUnit, Keyframe, KeyframeProgram, load_keyframes, save_keyframes
@@ -146,6 +146,7 @@ class TeachSession:
         angle_unit: Unit of angles in a new file (an appended file keeps its units).
         description: Text stored in a new file.
         existing: What to do when the file exists already (default: refuse).
+        clock: Time base of continuous recording (default: the robot's clock).
 
     Raises:
         InputError: For an existing file without ``existing``, or one that cannot be appended
@@ -154,8 +155,9 @@ class TeachSession:
 
     def __init__(self, robot: Robot, path: str | Path, release: Sequence[str] | None = None,
                  angle_unit: AngleUnit = AngleUnit.RAD, description: str = "",
-                 existing: ExistingFile = ExistingFile.REFUSE):
+                 existing: ExistingFile = ExistingFile.REFUSE, clock: Clock | None = None):
         self.robot = robot
+        self.clock: Clock = clock if clock is not None else robot.clock
         self.path = check_output(path, existing)
         grippers = set(robot.gripper_joints)
         on_bus = robot.bus.joint_names
@@ -304,27 +306,27 @@ class TeachSession:
         dt = 1.0 / rate_hz
         last = [kf.time for kf in self.program.keyframes if kf.time is not None]
         offset = (last[-1] + dt) if last else 0.0
-        t0 = last_save = time.perf_counter()
+        clock = self.clock
+        t0 = last_save = clock.now()
         k = n = 0
         try:
             while not stop.is_set():
                 deadline = t0 + k * dt
                 if duration is not None and k * dt > duration + 1e-9:
                     break
-                now = time.perf_counter()
-                if now < deadline and stop.wait(deadline - now):
+                if _wait(clock, deadline, stop):
                     break
-                t_sample = time.perf_counter() - t0
+                t_sample = clock.now() - t0
                 q = self.robot.joints()
                 values = tuple(float(q[self.robot.arm.joint_index(n)]) for n in self.joints)
                 with self._lock:
                     self.program = self.program.append(
                         Keyframe(q=values, time=round(offset + t_sample, 4)))
-                    if time.perf_counter() - last_save >= save_every:
+                    if clock.now() - last_save >= save_every:
                         self._save()
-                        last_save = time.perf_counter()
+                        last_save = clock.now()
                 n += 1
-                k = max(k + 1, int((time.perf_counter() - t0) / dt))  # no bursts after a delay
+                k = max(k + 1, int((clock.now() - t0) / dt))  # no bursts after a delay
         finally:
             with self._lock:
                 self._save()
@@ -361,3 +363,19 @@ class TeachSession:
                 self.path.unlink(missing_ok=True)
         self.set_limp(False)
         return self.program
+
+
+def _wait(clock: Clock, deadline: float, stop: threading.Event) -> bool:
+    """Sleep on ``clock`` until ``deadline`` [s] or until ``stop`` is set.
+
+    Sleeps in steps of at most 50 ms so that ``stop`` is seen soon.
+
+    Returns:
+        Whether ``stop`` was set.
+    """
+    while not stop.is_set():
+        now = clock.now()
+        if now >= deadline:
+            return False
+        clock.sleep_until(min(deadline, now + 0.05))
+    return True

@@ -10,7 +10,8 @@ real SDKs talk to on a pseudo-terminal (``port: sim`` in an arm config starts on
 from __future__ import annotations
 
 from armctl.servo.arm_bus import ArmBus, JointState
-from armctl.servo.calibration import Calibration, Calibrator
+from armctl.servo.calibrate import Calibrator
+from armctl.servo.calibration import Calibration, JointCalibration
 from armctl.servo.driver import ServoBus
 from armctl.servo.mapping import JointMap, JointMapping
 from armctl.servo.sim.bus import SimServoSpec, SimulatedBus
@@ -28,8 +29,9 @@ from armctl.servo.sim.faults import (
     TruncatedReply,
     WrongModel,
 )
+from armctl.servo.simulated_arm import simulated_bus, simulated_bus_for
 from armctl.servo.status import Feedback, PingResult
-from armctl.servo.tables import Register
+from armctl.servo.tables import Family, Register, Vendor
 
 __all__ = [
     "Alarm",
@@ -38,9 +40,11 @@ __all__ = [
     "Calibrator",
     "CorruptedReply",
     "DroppedReply",
+    "Family",
     "Fault",
     "Feedback",
     "HardwareAlarm",
+    "JointCalibration",
     "JointMap",
     "JointMapping",
     "JointState",
@@ -55,5 +59,8 @@ __all__ = [
     "SimServoSpec",
     "SimulatedBus",
     "TruncatedReply",
+    "Vendor",
     "WrongModel",
+    "simulated_bus",
+    "simulated_bus_for",
 ]

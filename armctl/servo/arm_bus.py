@@ -10,27 +10,29 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
+from armctl.clock import Clock, WallClock
 from armctl.config.bus import BusSpec, Protocol
 from armctl.config.schema import ArmSpec
 from armctl.errors import ConfigError, InputError
 from armctl.servo import errors as E
+from armctl.servo.calibration import Calibration
 from armctl.servo.driver import Feedback, ServoBus
 from armctl.servo.mapping import JointMapping
-from armctl.servo.tables import Alarm, Family, Register, table_for
+from armctl.servo.sim.bus import SimulatedBus
+from armctl.servo.simulated_arm import simulated_bus_for
+from armctl.servo.tables import Alarm, Register, table_for
 from armctl.typing import Array
-
-if TYPE_CHECKING:
-    from armctl.servo.calibration import Calibration
-    from armctl.servo.sim.bus import SimulatedBus
 
 __all__ = ["ArmBus", "JointState"]
 
 SIM_LATENCY_MS = 8.0  # adapter latency assumed in reply timeouts on the simulated bus [ms]
+#: Adapter latency assumed on a simulated bus in simulated time [ms]: waiting costs no simulated
+#: time there, so a simulator thread starved of CPU must not be taken for a missing servo.
+SIM_TIME_LATENCY_MS = 100.0
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -82,12 +84,14 @@ class ArmBus:
     """
 
     def __init__(self, bus: BusSpec, mapping: JointMapping, *, retries: int = 2,
-                 wire_timing: bool = False):
+                 wire_timing: bool = False, clock: Clock | None = None):
         self.spec = bus
         self.mapping = mapping
         self.joint_names: tuple[str, ...] = mapping.names
         self.retries = retries
         self.wire_timing = wire_timing
+        #: Time base of the simulated servos for ``port: sim`` (``None``: the default clock).
+        self.clock = clock
         self._bus: ServoBus | None = None
         self._sim: SimulatedBus | None = None
         self._ids = list(mapping.ids)
@@ -97,7 +101,8 @@ class ArmBus:
 
     @classmethod
     def from_spec(cls, spec: ArmSpec, calibration: Calibration | None = None, *,
-                  retries: int = 2, wire_timing: bool = False) -> ArmBus:
+                  retries: int = 2, wire_timing: bool = False,
+                  clock: Clock | None = None) -> ArmBus:
         """The bus of an arm config (no I/O).
 
         Args:
@@ -106,6 +111,8 @@ class ArmBus:
                 config's offsets.
             retries: Extra attempts after a failed transaction.
             wire_timing: For ``port: sim``: time simulated replies at the baud rate.
+            clock: For ``port: sim``: time base of the simulated servos (default
+                :func:`~armctl.clock.default_clock`).
 
         Raises:
             ConfigError: No bus section, or an inconsistent one.
@@ -114,7 +121,7 @@ class ArmBus:
             raise ConfigError(f"arm {spec.name!r} has no 'bus:' section", None,
                               "add a bus section (see docs/bus.md)")
         mapping = JointMapping.from_spec(spec, calibration)
-        self = cls(spec.bus, mapping, retries=retries, wire_timing=wire_timing)
+        self = cls(spec.bus, mapping, retries=retries, wire_timing=wire_timing, clock=clock)
         self.calibration = calibration
         self.arm_name = spec.name
         return self
@@ -133,12 +140,11 @@ class ArmBus:
             return self
         port, latency = self.spec.port, 16.0
         if self.spec.simulated:
-            from armctl.servo.sim.bus import SimulatedBus
-
-            self._sim = SimulatedBus.from_mapping(self.mapping, self.spec.protocol,
-                                                  self.spec.baudrate,
-                                                  wire_timing=self.wire_timing)
+            self._sim = simulated_bus_for(self.mapping, self.spec.protocol, self.spec.baudrate,
+                                          wire_timing=self.wire_timing, clock=self.clock)
             port, latency = self._sim.start(), SIM_LATENCY_MS
+            if not isinstance(self._sim.clock, WallClock):
+                latency = SIM_TIME_LATENCY_MS
         models = {j.servo_id: j.model for j in self.mapping.joints}
         bus = ServoBus(port, self.spec.protocol, self.spec.baudrate, models=models,
                        retries=self.retries, latency_ms=latency)
@@ -192,10 +198,12 @@ class ArmBus:
         """Operating modes (multi-turn where needed) and calibrated homing offsets."""
         bus = self.servo_bus
         for j in self.mapping.joints:
-            table = table_for(j.model)
+            vendor = table_for(j.model).vendor
             wants: list[tuple[Register, int]] = []
-            if table.family is Family.DYNAMIXEL:
-                wants.append((Register.OPERATING_MODE, 4 if j.multi_turn else 3))
+            if vendor.sets_mode:
+                mode = vendor.multi_turn_mode if j.multi_turn else vendor.position_mode
+                assert mode is not None  # the mapping allows multi-turn only with it  # mypy.
+                wants.append((Register.OPERATING_MODE, mode))
             wants.append((Register.HOMING_OFFSET, j.homing_offset))
             todo = [(r, v) for r, v in wants if bus.read(j.servo_id, r) != v]
             if not todo:
@@ -218,12 +226,12 @@ class ArmBus:
         """
         bus = self.servo_bus
         self._refuse_alarmed([sid], "the EEPROM write")
-        feetech = bus.family is Family.FEETECH
-        if feetech:
+        lock = bus.vendor.eeprom_lock
+        if lock:
             bus.write(sid, Register.LOCK, 0)
         for reg, value in items:
             bus.write(sid, reg, value)
-        if feetech:
+        if lock:
             bus.write(sid, Register.LOCK, 1)
 
     # ---- reading -------------------------------------------------------------------------------

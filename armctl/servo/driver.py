@@ -26,9 +26,9 @@ from armctl.servo.replies import ReplyLedger, Window
 from armctl.servo.sdk import IO_ERRORS, Dxl1Sdk, DxlSdk, FeetechSdk, Sdk
 from armctl.servo.status import Feedback, PingResult, StatusStyle, alarms_in, refusal
 from armctl.servo.tables import (
+    VENDORS,
     Alarm,
     ControlTable,
-    Family,
     Register,
     alarms_from_bits,
     table_for,
@@ -36,6 +36,10 @@ from armctl.servo.tables import (
 )
 
 __all__ = ["ServoBus"]
+
+#: The vendor SDK that speaks each protocol.
+_SDKS: dict[Protocol, type[Sdk]] = {
+    Protocol.DYNAMIXEL: DxlSdk, Protocol.DYNAMIXEL1: Dxl1Sdk, Protocol.FEETECH: FeetechSdk}
 
 #: Unanswered requests per servo after which the line is resynchronised (drained until quiet).
 MAX_PENDING = 24
@@ -88,7 +92,8 @@ class ServoBus:
         self.latency_ms = latency_ms
         self.tables: dict[int, ControlTable] = {
             sid: table_for(m) for sid, m in (models or {}).items()}
-        self.family = Family.FEETECH if protocol is Protocol.FEETECH else Family.DYNAMIXEL
+        self.family = protocol.family
+        self.vendor = VENDORS[self.family]  # ticks, units and conventions of the family
         self.p1 = protocol is Protocol.DYNAMIXEL1  # error bit field, no sync read, no reboot
         self.style = StatusStyle.of(protocol)
         for sid, t in self.tables.items():
@@ -99,7 +104,7 @@ class ServoBus:
         self._lock = threading.RLock()
         self.ledger = ReplyLedger()
         self._late_now: list[int] = []
-        generic = table_for("sts3215" if self.family is Family.FEETECH else "xl430-w250")
+        generic = table_for(self.vendor.generic_model)
         self._generic = generic  # for servos of unknown model (scan): model number, id, memory
 
     # ---- life cycle -------------------------------------------------------------------------
@@ -112,8 +117,7 @@ class ServoBus:
         """
         if self._sdk is not None:
             return self
-        cls: type[Sdk] = FeetechSdk if self.family is Family.FEETECH else (
-            Dxl1Sdk if self.p1 else DxlSdk)
+        cls = _SDKS[self.protocol]
         sdk = cls(self.port, self.latency_ms)
         try:
             ok = sdk.open(self.baudrate)
@@ -562,8 +566,8 @@ class ServoBus:
         if reg is Register.ID and value != sid:
             target = value
             self.tables[value] = self.tables.pop(sid)
-        if self.family is Family.FEETECH and table.is_eeprom(reg):
-            try:  # Feetech ignores locked EEPROM writes silently: read back
+        if self.vendor.eeprom_lock and table.is_eeprom(reg):
+            try:  # a locked EEPROM ignores writes silently (Feetech): read back
                 back = self.read(target, reg)
             except E.NoReplyError:
                 if target == sid:
@@ -599,7 +603,7 @@ class ServoBus:
     def alarms(self, sid: int) -> tuple[Alarm, ...]:
         """The hardware alarms servo ``sid`` reports (Hardware Error Status / Status)."""
         bits = self.read(sid, Register.HARDWARE_ERROR)
-        return alarms_from_bits(bits, self.family is Family.FEETECH)
+        return alarms_from_bits(bits, self.vendor.feetech)
 
     def _raise_alarm(self, sid: int, reg: str | None,
                      found: tuple[Alarm, ...] | None = None) -> None:
@@ -679,9 +683,7 @@ class ServoBus:
         out = {}
         for sid, (v, error) in raw.items():
             alarms = self._alarms_from_error(sid, error)
-            vel = float(v[Register.PRESENT_VELOCITY])
-            if self.family is Family.DYNAMIXEL:
-                vel *= 0.229 / 60.0 * 4096
+            vel = float(v[Register.PRESENT_VELOCITY]) * self.vendor.velocity_unit  # [tick/s]
             out[sid] = Feedback(sid, v[Register.PRESENT_POSITION], vel, v[Register.PRESENT_LOAD],
                                 v[Register.PRESENT_VOLTAGE] / 10.0,
                                 v[Register.PRESENT_TEMPERATURE], error, alarms)

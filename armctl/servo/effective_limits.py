@@ -25,21 +25,19 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from armctl.arm import Arm
 from armctl.config.schema import ArmSpec, JointType
 from armctl.errors import ConfigError, JointLimitError, KeyPath
+from armctl.servo.arm_bus import ArmBus
+from armctl.servo.calibration import Calibration
 from armctl.servo.mapping import JointMap, JointMapping, LimitSource, calibrated_range
-from armctl.servo.tables import Family, Register, table_for
+from armctl.servo.tables import Register, table_for
 from armctl.typing import Array
-
-if TYPE_CHECKING:
-    from armctl.arm import Arm
-    from armctl.servo.arm_bus import ArmBus
-    from armctl.servo.calibration import Calibration
 
 __all__ = [
     "MARGIN_TICKS",
@@ -373,10 +371,10 @@ def _registers_apply(jm: JointMap, regs: PositionLimitRegisters) -> bool:
     """Whether a servo's position limit registers limit its goals at all."""
     if jm.multi_turn:
         return False
-    family = table_for(jm.model).family
-    if family is Family.FEETECH:
-        return regs.operating_mode == 0 and (regs.minimum, regs.maximum) != (0, 0)
-    return regs.operating_mode == 3
+    vendor = table_for(jm.model).vendor
+    if vendor.zero_limits_off and (regs.minimum, regs.maximum) == (0, 0):
+        return False
+    return regs.operating_mode == vendor.position_mode
 
 
 def _register_range(jm: JointMap, regs: PositionLimitRegisters) -> tuple[float, float]:
@@ -394,15 +392,14 @@ def _register_range(jm: JointMap, regs: PositionLimitRegisters) -> tuple[float, 
 def _register_bounds(jm: JointMap, regs: PositionLimitRegisters, rng: tuple[float, float]
                      ) -> tuple[Any, Any]:
     table = table_for(jm.model)
-    feetech = table.family is Family.FEETECH
+    limit_name = table.vendor.position_limit_name
     falling = jm.to_ticks(1.0) < jm.to_ticks(0.0)
 
     def make(side: int) -> Any:
         reg = (Register.MAX_POSITION_LIMIT if (side == 1) != falling
                else Register.MIN_POSITION_LIMIT)
         ticks = regs.maximum if reg is Register.MAX_POSITION_LIMIT else regs.minimum
-        label = ("Max" if reg is Register.MAX_POSITION_LIMIT else "Min") + (
-            " Angle Limit" if feetech else " Position Limit")
+        label = ("Max " if reg is Register.MAX_POSITION_LIMIT else "Min ") + limit_name
         full = table.ticks_per_rev - 1 if reg is Register.MAX_POSITION_LIMIT else 0
         at = format_joint_value(rng[side], jm.joint_type)
         origin = (f"servo {jm.servo_id}'s own {label} register (address "

@@ -23,17 +23,14 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from armctl.config.schema import ArmSpec, JointType
 from armctl.errors import ConfigError, InputError, JointLimitError, UnknownNameError
-from armctl.servo.tables import Family, table_for
-
-if TYPE_CHECKING:
-    from armctl.servo.calibration import Calibration, JointCalibration
+from armctl.servo.calibration import Calibration, JointCalibration
+from armctl.servo.tables import Vendor, table_for
 
 __all__ = ["JointMap", "JointMapping", "LimitSource"]
 
@@ -180,7 +177,7 @@ def calibrated_range(j: JointMap, cal: JointCalibration) -> tuple[float, float]:
     return a, b
 
 
-def _wrap_shift(j: JointMap, family: Family) -> int:
+def _wrap_shift(j: JointMap, vendor: Vendor) -> int:
     """The smallest tick shift that brings a joint's travel inside 0..N-1, or 0 if none can.
 
     A Dynamixel servo in Position mode honours homing offsets within +-1024 only (e-Manual);
@@ -193,8 +190,7 @@ def _wrap_shift(j: JointMap, family: Family) -> int:
         return 0
     s_lo, s_hi = math.ceil(margin - lo), math.floor(n - 1 - margin - hi)
     shift = min(max(0, s_lo), s_hi)
-    limit = 2047 if family is Family.FEETECH else 1024
-    return shift if abs(shift) <= limit else 0
+    return shift if abs(shift) <= vendor.homing_limit else 0
 
 
 class JointMapping:
@@ -230,8 +226,8 @@ class JointMapping:
             if s is None:
                 continue
             table = table_for(s.model)
-            if table.family.value != ("feetech" if spec.bus.protocol.value == "feetech"
-                                      else "dynamixel"):
+            vendor = table.vendor
+            if table.family is not spec.bus.protocol.family:
                 raise ConfigError(f"servo model {s.model!r} does not speak "
                                   f"{spec.bus.protocol.value}", s.where,
                                   "fix the model or the bus protocol")
@@ -244,7 +240,7 @@ class JointMapping:
             span = (upper - lower) * s.gear_ratio / (2.0 * math.pi)
             multi = joint.type is JointType.CONTINUOUS or not math.isfinite(span) or \
                 span > _TURN_MARGIN or (cal is not None and cal.multi_turn)
-            if multi and table.family is Family.FEETECH:
+            if multi and vendor.multi_turn_mode is None:
                 raise ConfigError(
                     f"joint {joint.name!r} spans {span:.2f} servo turns; {s.model} servos are "
                     "driven single-turn by armctl", s.where,
@@ -260,10 +256,10 @@ class JointMapping:
                 lower, upper = max(lower, a), min(upper, b)
                 homing = cal.homing_offset
             elif jm.wrap_inside():
-                shift = _wrap_shift(jm, table.family)
+                shift = _wrap_shift(jm, vendor)
                 if shift:  # move the encoder wrap out of the travel with the homing offset
                     zero_tick += shift
-                    homing = -shift if table.family is Family.FEETECH else shift
+                    homing = vendor.homing_sign * shift
             rest = home.get(joint.name, 0.0)
             rest = min(max(rest, lower), upper) if math.isfinite(lower) or math.isfinite(
                 upper) else rest

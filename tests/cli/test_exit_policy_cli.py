@@ -18,7 +18,7 @@ from armctl.servo import Register
 from armctl.servo.sim.bus import SimulatedBus
 from armctl.servo.tables import table_for
 
-pytestmark = pytest.mark.timeout(60)
+pytestmark = [pytest.mark.timeout(60), pytest.mark.usefixtures("simulated_time")]
 
 SO_SIM = REPO / "tests" / "servo" / "data" / "so_sim.yaml"
 STS = table_for("sts3215")

@@ -22,6 +22,7 @@ from armctl.servo import (
     Register,
     ServoBus,
     SimulatedBus,
+    simulated_bus,
 )
 from armctl.servo.sim.console import SimConsole, parse_fault
 
@@ -55,7 +56,7 @@ BAD_LINES = [
 
 @pytest.fixture
 def sim() -> Iterator[SimulatedBus]:
-    with SimulatedBus.from_spec(load_spec("so101")) as bus:
+    with simulated_bus(load_spec("so101")) as bus:
         yield bus
 
 

@@ -23,9 +23,10 @@ import numpy as np
 import pytest
 from armctl_testpaths import CONFIGS
 
-import armctl.cli.motion as cli_motion
+import armctl.cli._motion_report as motion_report
 from armctl.arm import load_arm
 from armctl.cli import main
+from armctl.cli._progress import Progress
 from armctl.config.motion import ExitPolicy
 from armctl.robot import Robot
 
@@ -186,7 +187,7 @@ def stop_at(t_stop: float, monkeypatch: pytest.MonkeyPatch, sig: int = signal.SI
             sent.append(info.t)
             os.kill(os.getpid(), sig)
 
-    monkeypatch.setattr(cli_motion._Progress, "__call__", progress)
+    monkeypatch.setattr(Progress, "__call__", progress)
 
 
 def record_close(monkeypatch: pytest.MonkeyPatch, signum: int | None = None) -> list[Any]:
@@ -218,13 +219,13 @@ def test_a_signal_after_the_stop_keeps_the_stops_exit_code(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], name: str) -> None:
     late = getattr(signal, name)
     stop_at(0.3, monkeypatch)
-    original_text = cli_motion._stop_text
+    original_text = motion_report.stop_text
 
     def report(robot: Any, stopped: Any) -> str:  # while the report is printed
         os.kill(os.getpid(), late)
         return original_text(robot, stopped)
 
-    monkeypatch.setattr(cli_motion, "_stop_text", report)
+    monkeypatch.setattr(motion_report, "stop_text", report)
     seen = record_close(monkeypatch, late)  # and while the bus closes
     code = main(["move-joints", "so101", *map(str, GOAL), "--exit-policy", "park"])
     out, err = capsys.readouterr()
@@ -239,13 +240,13 @@ def test_a_signal_after_a_finished_motion_exits_5_and_skips_the_exit_policy(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     """The arm has moved: 5 (it holds), not 143, which says that nothing moved."""
     goal = [0.2, -0.2, 0.2, 0.0, 0.0, 0.0]
-    done = cli_motion._Progress.done
+    done = Progress.done
 
     def finished(self: Any) -> None:  # the motion has ended; the exit policy is next
         os.kill(os.getpid(), signal.SIGTERM)
         done(self)
 
-    monkeypatch.setattr(cli_motion._Progress, "done", finished)
+    monkeypatch.setattr(Progress, "done", finished)
     seen = record_close(monkeypatch)
     code = main(["move-joints", "so101", *map(str, goal), "--exit-policy", "park", "--json"])
     out, err = capsys.readouterr()
@@ -297,7 +298,7 @@ def test_a_signal_in_the_last_cycle_holds_at_the_goal_and_exits_5(
         if info.t >= info.duration:  # the last cycle
             os.kill(os.getpid(), signal.SIGTERM)
 
-    monkeypatch.setattr(cli_motion._Progress, "__call__", progress)
+    monkeypatch.setattr(Progress, "__call__", progress)
     seen = record_close(monkeypatch)
     code = main(["move-joints", "so101", *map(str, goal), "--exit-policy", "park"])
     out, err = capsys.readouterr()
@@ -338,13 +339,13 @@ def test_a_signal_while_the_servos_settle_holds_and_exits_5(
 def test_a_signal_after_a_dry_run_gives_128_plus_its_number(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     """Nothing moved: the signal's own code, as before a motion."""
-    done = cli_motion._Progress.done
+    done = Progress.done
 
     def finished(self: Any) -> None:
         os.kill(os.getpid(), signal.SIGTERM)
         done(self)
 
-    monkeypatch.setattr(cli_motion._Progress, "done", finished)
+    monkeypatch.setattr(Progress, "done", finished)
     code = main(["move-joints", "so101", *map(str, GOAL), "--dry-run"])
     err = capsys.readouterr().err
     assert code == 143, err

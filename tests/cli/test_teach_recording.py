@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from armctl.cli.motion import _teach_loop
+from armctl.cli._teach_loop import teach_loop
 
 pytestmark = pytest.mark.timeout(30)
 
@@ -51,6 +51,6 @@ def test_ctrl_c_while_recording_stops_the_recording(monkeypatch: pytest.MonkeyPa
     said: list[str] = []
     robot: Any = None  # the recording command does not use it
     with pytest.raises(KeyboardInterrupt):
-        _teach_loop(session, robot, said.append, said.append)
+        teach_loop(session, robot, said.append, said.append)
     assert session.ended.is_set()  # stopped and joined before the interrupt went on
     assert any("recording at 20 Hz" in s for s in said)

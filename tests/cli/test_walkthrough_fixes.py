@@ -25,6 +25,8 @@ from armctl.motion import load_keyframes
 URDF = REPO / "tests" / "data" / "urdf" / "ur5e.urdf"
 SO101_JOINTS = "[shoulder_pan, shoulder_lift, elbow_flex, wrist_flex, wrist_roll]"
 
+pytestmark = pytest.mark.usefixtures("simulated_time")  # motions run in simulated time
+
 
 def run(capsys: pytest.CaptureFixture[str], *argv: str, stdin: str | None = None,
         monkeypatch: pytest.MonkeyPatch | None = None) -> tuple[int, str, str]:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import signal
-import time
 from collections.abc import Iterator
 
 import numpy as np
@@ -64,7 +63,7 @@ def test_unreachable_goal_moves_nothing(robot: Robot) -> None:
     with pytest.raises(NoSolutionError, match="nothing was moved") as info:
         robot.move_to_pose(PositionGoal([1.5, 0.0, 0.2]))
     assert info.value.exit_code == 3
-    time.sleep(0.1)
+    robot.clock.sleep_until(robot.clock.now() + 0.1)  # time for anything sent to show
     assert np.allclose(robot.joints(), before, atol=1e-9)
 
 
@@ -133,7 +132,7 @@ def test_sigint_mid_move_decelerates_and_holds_with_torque_on(robot: Robot) -> N
     assert np.max(np.abs(vel[-1])) < 0.02  # at rest at the end of the stop (one cycle)
     assert not np.allclose(cmds[-1], plan.goal[robot.executor.idx], atol=0.05)  # stopped early
     held = robot.joints()
-    time.sleep(0.3)
+    robot.clock.sleep_until(robot.clock.now() + 0.3)
     assert np.allclose(robot.joints(), held, atol=2e-3)  # positions stop changing
     assert all(robot.bus.torque().values())  # torque stays on
 

@@ -54,7 +54,7 @@ def test_hand_guided_poses_are_recorded(robot: Robot, tmp_path: Path) -> None:
     held_before = robot.joints()
     program = session.finish()
     assert all(robot.bus.torque().values())
-    time.sleep(0.2)
+    robot.clock.sleep_until(robot.clock.now() + 0.2)
     assert np.allclose(robot.joints(), held_before, atol=2 * TICK)  # no jump on torque-on
     back = load_keyframes(path, robot.arm)
     assert back.calibration == program.calibration
@@ -75,7 +75,8 @@ def test_hand_guided_poses_are_recorded(robot: Robot, tmp_path: Path) -> None:
 def test_continuous_recording_and_undo(robot: Robot, tmp_path: Path) -> None:
     import threading
 
-    session = robot.teach(tmp_path / "rec.yaml")
+    session = TeachSession(robot, tmp_path / "rec.yaml")
+    session.start()
     assert session.limp
     n = session.record_continuous(50.0, threading.Event(), duration=0.2)
     prog = load_keyframes(tmp_path / "rec.yaml", robot.arm)
@@ -100,6 +101,7 @@ def test_jog_modes(robot: Robot, tmp_path: Path) -> None:
     session.finish()
 
 
+@pytest.mark.realtime  # end to end: `armctl teach` in a subprocess, in wall-clock time
 def test_killing_teach_mid_session_leaves_a_valid_file(tmp_path: Path) -> None:
     out = tmp_path / "killed.yaml"
     proc = subprocess.Popen([sys.executable, "-m", "armctl", "teach", "so101", "-o", str(out)],

@@ -3,6 +3,10 @@
 A stop signal (SIGINT, SIGTERM, SIGHUP) or a ``KeyboardInterrupt`` during a motion decelerates
 within the joint limits and holds; a second one holds at once; leaving the block with the
 exception holds the arm where it stopped, even with the ``park`` exit policy.
+
+The tests run in simulated time: the servos' positions are sampled every 2 ms of simulated time
+as the clock advances, and "timers" fire between control cycles, where a signal finds the loop
+asleep. One test (``realtime``) sends a signal from a real timer thread in wall-clock time.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import numpy as np
 import pytest
 
 from armctl.arm import Arm, load_arm
+from armctl.clock import Clock, SimulatedClock, WallClock
 from armctl.config.motion import ExitPolicy
 from armctl.robot import CycleInfo, MotionStopped, Robot, StopReason
 
@@ -35,31 +40,69 @@ def so101() -> Arm:
     return load_arm("so101")
 
 
-class Recorder:
-    """Samples the simulated servos' positions (not the commands) every 2 ms in a thread."""
+SAMPLE = 0.002  # [s] between two samples of the servos' positions
 
-    def __init__(self, sim: object, names: tuple[str, ...]):
+
+class SamplingClock(SimulatedClock):
+    """Simulated time that calls ``on_tick`` every :data:`SAMPLE` and fires alarms on time."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.on_tick: Callable[[], None] | None = None
+        self.alarms: list[tuple[float, Callable[[], None]]] = []
+
+    def sleep_until(self, t: float) -> None:
+        while (now := self.now()) < t:
+            step = min(t, (np.floor(now / SAMPLE + 1e-9) + 1) * SAMPLE)
+            super().sleep_until(step)
+            due = [f for at, f in self.alarms if at <= step]
+            self.alarms = [(at, f) for at, f in self.alarms if at > step]
+            for f in due:
+                f()
+            if self.on_tick is not None:
+                self.on_tick()
+
+
+class Recorder:
+    """Samples the simulated servos' positions (not the commands) every 2 ms.
+
+    In simulated time on every :data:`SAMPLE` of a :class:`SamplingClock`; in wall-clock time
+    in a thread.
+    """
+
+    def __init__(self, sim: object, names: tuple[str, ...], clock: Clock):
         self.sim = sim
         self.names = names
+        self.clock = clock
         self.t: list[float] = []
         self.q: list[np.ndarray] = []
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
 
+    def sample(self) -> None:
+        pos = self.sim.joint_positions()  # type: ignore[attr-defined]
+        self.t.append(self.clock.now())
+        self.q.append(np.array([pos[n] for n in self.names]))
+
     def _run(self) -> None:
         while not self._stop.is_set():
-            pos = self.sim.joint_positions()  # type: ignore[attr-defined]
-            self.t.append(time.perf_counter())
-            self.q.append(np.array([pos[n] for n in self.names]))
-            time.sleep(0.002)
+            self.sample()
+            time.sleep(SAMPLE)
 
     def __enter__(self) -> Recorder:
-        self._thread.start()
+        if isinstance(self.clock, SamplingClock):
+            self.sample()
+            self.clock.on_tick = self.sample
+        else:
+            self._thread.start()
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join(2.0)
+        if isinstance(self.clock, SamplingClock):
+            self.clock.on_tick = None
+        else:
+            self._stop.set()
+            self._thread.join(2.0)
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         return np.array(self.t), np.array(self.q)
@@ -84,28 +127,35 @@ def braking(t: np.ndarray, q: np.ndarray, after: float) -> np.ndarray:
     return np.max(dv, axis=0)
 
 
-def stop_in_block(so101: Arm, trigger: Callable[[CycleInfo, Robot], None]
+@pytest.fixture
+def clock(simulated_time: SimulatedClock | None) -> Clock:
+    """A :class:`SamplingClock`, or the wall clock for a ``realtime`` test."""
+    return WallClock() if simulated_time is None else SamplingClock()
+
+
+def stop_in_block(so101: Arm, trigger: Callable[[CycleInfo, Robot], None], clock: Clock
                   ) -> tuple[MotionStopped, Recorder, dict]:
     """Run a move in a Robot block (exit policy park) until ``trigger`` stops it; record it."""
     state: dict = {}
     with pytest.raises(MotionStopped) as info:
-        with Robot.open(so101, speed=SPEED, exit_policy=ExitPolicy.PARK) as robot:
+        with Robot.open(so101, speed=SPEED, exit_policy=ExitPolicy.PARK, clock=clock) as robot:
             sim = robot.bus.simulator
             state["sim"] = sim
             state["limits"] = robot.limits
-            rec = Recorder(sim, robot.bus.joint_names)
+            rec = Recorder(sim, robot.bus.joint_names, clock)
             rec.__enter__()
 
             def on_cycle(cyc: CycleInfo) -> None:
                 if cyc.stopping and "stopping" not in state:  # the stop's first command
-                    state["stopping"] = time.perf_counter()
+                    state["stopping"] = clock.now()
                 trigger(cyc, robot)
 
             state["previous"] = {s: signal.getsignal(s) for s in
                                  (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
             robot.move_joints(GOAL, on_cycle=on_cycle)
-    state["closed_at"] = time.perf_counter()
-    time.sleep(0.4)  # anything that follows the stop (a park) would move the arm now
+    state["closed_at"] = clock.now()
+    # anything that follows the stop (a park) would move the arm now
+    clock.sleep_until(clock.now() + 0.4)
     rec.__exit__()
     return info.value, rec, state
 
@@ -157,15 +207,15 @@ def check_holds_where_it_stopped(exc: MotionStopped, rec: Recorder, state: dict,
 
 
 def test_keyboard_interrupt_in_the_block_decelerates_and_holds_without_parking(
-        so101: Arm) -> None:
+        so101: Arm, clock: Clock) -> None:
     fired: dict[str, float] = {}
 
     def ctrl_c(cyc: CycleInfo, robot: Robot) -> None:
         if cyc.t >= cyc.duration / 2 and not fired:  # at full speed
-            fired["t"] = time.perf_counter()
+            fired["t"] = clock.now()
             raise KeyboardInterrupt
 
-    exc, rec, state = stop_in_block(so101, ctrl_c)
+    exc, rec, state = stop_in_block(so101, ctrl_c, clock)
     assert exc.reason is StopReason.USER and exc.exit_code == 5
     assert exc.signum == signal.SIGINT and isinstance(exc.__cause__, KeyboardInterrupt)
     assert "decelerated and holds" in str(exc)
@@ -175,40 +225,60 @@ def test_keyboard_interrupt_in_the_block_decelerates_and_holds_without_parking(
     check_holds_where_it_stopped(exc, rec, state, so101)
 
 
-@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGHUP"])
-def test_a_stop_signal_from_a_timer_decelerates_and_holds(so101: Arm, sig: str) -> None:
+def _stop_signal_from_a_timer(so101: Arm, sig: str, clock: Clock) -> None:
     signum = getattr(signal, sig)
     fired: dict[str, float] = {}
 
     def arm_timer(cyc: CycleInfo, robot: Robot) -> None:
-        if not fired:  # from another thread, as a terminal or `kill` would
-            fired["armed"] = time.perf_counter()
+        if not fired:
+            fired["armed"] = clock.now()
 
             def send() -> None:
-                fired["t"] = time.perf_counter()
+                fired["t"] = clock.now()
                 os.kill(os.getpid(), signum)
 
-            threading.Timer(cyc.duration / 2, send).start()  # at full speed
+            if isinstance(clock, SamplingClock):  # between two cycles, in simulated time
+                clock.alarms.append((clock.now() + cyc.duration / 2, send))
+            else:  # from another thread, as a terminal or `kill` would
+                threading.Timer(cyc.duration / 2, send).start()  # at full speed
 
-    exc, rec, state = stop_in_block(so101, arm_timer)
+    exc, rec, state = stop_in_block(so101, arm_timer, clock)
     assert exc.reason is StopReason.USER and exc.signum == signum
     assert sig in str(exc) and exc.details["signal"] == sig
     assert state["stopping"] >= fired["t"]
-    check_decelerated(rec, state["stopping"], state["limits"], np.arange(so101.dof))
+    if isinstance(clock, SamplingClock):
+        # the velocity profile needs samples exactly every 2 ms: simulated time only (a sampler
+        # thread starved of CPU in wall-clock time would see jumps that are not there)
+        check_decelerated(rec, state["stopping"], state["limits"], np.arange(so101.dof))
     check_holds_where_it_stopped(exc, rec, state, so101)
     # the handlers in place before the motion are back
     assert {s: signal.getsignal(s) for s in state["previous"]} == state["previous"]
 
 
-def test_a_second_signal_during_the_deceleration_holds_at_once(so101: Arm) -> None:
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_a_stop_signal_from_a_timer_decelerates_and_holds(so101: Arm, sig: str,
+                                                          clock: Clock) -> None:
+    _stop_signal_from_a_timer(so101, sig, clock)
+
+
+@pytest.mark.realtime
+def test_a_stop_signal_from_a_timer_thread_in_real_time_decelerates_and_holds(
+        so101: Arm, clock: Clock) -> None:
+    """End to end in wall-clock time: a signal sent from another thread during the move."""
+    assert isinstance(clock, WallClock)
+    _stop_signal_from_a_timer(so101, "SIGTERM", clock)
+
+
+def test_a_second_signal_during_the_deceleration_holds_at_once(so101: Arm,
+                                                               clock: Clock) -> None:
     sent: list[float] = []
 
     def twice(cyc: CycleInfo, robot: Robot) -> None:
         if cyc.t >= cyc.duration / 2 and len(sent) < 2 and (not sent or cyc.stopping):
-            sent.append(time.perf_counter())
+            sent.append(clock.now())
             os.kill(os.getpid(), signal.SIGINT)
 
-    exc, rec, state = stop_in_block(so101, twice)
+    exc, rec, state = stop_in_block(so101, twice, clock)
     assert "held it at once" in str(exc) and exc.reason is StopReason.USER
     t, q = rec.arrays()
     tv, v = velocity(t, q)
@@ -235,7 +305,7 @@ def test_an_error_in_the_callback_stops_the_arm_and_is_raised_again(so101: Arm) 
         with pytest.raises(ZeroDivisionError, match="the caller's bug"):
             robot.move_joints(GOAL, on_cycle=broken)
         first = sim.joint_positions()
-        time.sleep(0.2)
+        robot.clock.sleep_until(robot.clock.now() + 0.2)
         assert sim.joint_positions() == pytest.approx(first, abs=2e-3)  # at rest, holding
         assert abs(first["shoulder_pan"] - GOAL[0]) > 0.1 and all(s.torque for s in sim.servos)
 

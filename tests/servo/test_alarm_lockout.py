@@ -11,7 +11,7 @@ from armctl.cli import main
 from armctl.config import load_spec
 from armctl.robot import Robot
 from armctl.robot.errors import MotionStopped, StopReason
-from armctl.servo import Alarm, ArmBus, HardwareAlarm, Register, SimulatedBus
+from armctl.servo import Alarm, ArmBus, HardwareAlarm, Register, simulated_bus
 from armctl.servo.errors import ServoAlarmError
 
 pytestmark = pytest.mark.timeout(60)
@@ -92,7 +92,7 @@ def test_a_stop_after_an_alarm_sends_nothing_more_to_that_servo() -> None:
 
 def test_cli_torque_refuses_an_alarmed_servo_until_cleared(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    sim = SimulatedBus.from_spec(load_spec(SO_SIM))
+    sim = simulated_bus(load_spec(SO_SIM))
     sim.start()
     try:
         cfg = tmp_path / "arm.yaml"

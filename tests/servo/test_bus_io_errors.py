@@ -14,7 +14,7 @@ from armctl.config import load_spec
 from armctl.config.bus import Protocol
 from armctl.robot import Robot
 from armctl.robot.errors import MotionStopped, StopReason
-from armctl.servo import ArmBus, Register, ServoBus, SimServoSpec, SimulatedBus
+from armctl.servo import ArmBus, Register, ServoBus, SimServoSpec, SimulatedBus, simulated_bus
 from armctl.servo.errors import PortError, PortIOError, PortVanishedError
 
 pytestmark = pytest.mark.timeout(60)
@@ -130,7 +130,7 @@ def test_unplugged_during_a_cli_move(tmp_path: Path, capsys: pytest.CaptureFixtu
                                      ) -> None:
     """A standalone simulator that disappears while ``armctl move-joints`` streams to it."""
     spec = load_spec(SO_SIM)
-    sim = SimulatedBus.from_spec(spec)
+    sim = simulated_bus(spec)
     sim.start()
     cfg = tmp_path / "arm.yaml"
     cfg.write_text(SO_SIM.read_text().replace("port: sim", f"port: {sim.port}"))
@@ -149,7 +149,7 @@ def test_unplugged_during_a_cli_move(tmp_path: Path, capsys: pytest.CaptureFixtu
 
 def test_arm_bus_open_on_a_busy_port() -> None:
     spec = load_spec(SO_SIM)
-    sim = SimulatedBus.from_spec(spec)
+    sim = simulated_bus(spec)
     sim.start()
     try:
         from dataclasses import replace

@@ -60,9 +60,9 @@ def test_missing_port_is_exit_code_4(capsys: pytest.CaptureFixture[str]) -> None
 def test_calibrate_without_motion_is_refused(capsys: pytest.CaptureFixture[str],
                                              monkeypatch: pytest.MonkeyPatch,
                                              tmp_path: Path) -> None:
-    import armctl.cli.bus as cli_bus
+    import armctl.cli._calibrate_wizard as wizard
 
-    monkeypatch.setattr(cli_bus, "_wait_enter", lambda prompt, step=None, period=0.0: (
+    monkeypatch.setattr(wizard, "wait_enter", lambda prompt, step=None, period=0.0: (
         step() if step else None))
     code = main(["calibrate", str(DATA / "so_sim.yaml"), "-o", str(tmp_path / "c.yaml")])
     assert code == 2

@@ -21,6 +21,7 @@ from armctl.servo import (
     SimServoSpec,
     SimulatedBus,
     TruncatedReply,
+    simulated_bus,
 )
 
 pytestmark = pytest.mark.timeout(60)
@@ -91,7 +92,7 @@ def test_a_few_retries_are_reported_without_a_warning(caplog: pytest.LogCaptureF
 
 def test_cli_prints_and_returns_the_retries(tmp_path: Path,
                                             capsys: pytest.CaptureFixture[str]) -> None:
-    sim = SimulatedBus.from_spec(load_spec(SO_SIM))
+    sim = simulated_bus(load_spec(SO_SIM))
     sim.start()
     try:
         cfg = tmp_path / "arm.yaml"

@@ -19,12 +19,13 @@ import select
 import threading
 import time
 import tty
+import typing
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
+from armctl.clock import Clock, default_clock
 from armctl.config.bus import Protocol
 from armctl.errors import InputError
 from armctl.servo.sim import faults as F
@@ -32,14 +33,9 @@ from armctl.servo.sim.dispatch import REBOOT, Dispatcher, Reply
 from armctl.servo.sim.serialspeed import client_baudrate
 from armctl.servo.sim.servo import SimServo
 from armctl.servo.sim.wire import BROADCAST, DxlWire, FeetechWire, Instruction
-from armctl.servo.tables import Family, Register, table_for
+from armctl.servo.tables import VENDORS, Register, table_for
 
-if TYPE_CHECKING:
-    from armctl.config.schema import ArmSpec
-    from armctl.servo.calibration import Calibration
-    from armctl.servo.mapping import JointMapping
-
-__all__ = ["SimServoSpec", "SimulatedBus"]
+__all__ = ["JointLookup", "SimJoint", "SimServoSpec", "SimulatedBus"]
 
 _EARLY = 3e-4  # [s] how early a reply that is not the last of a group may be sent
 _INLINE = 5e-3  # [s] replies due within this are waited for at once; later ones are queued
@@ -65,6 +61,35 @@ class SimServoSpec:
     multi_turn: bool = False
 
 
+class SimJoint(typing.Protocol):
+    """What the simulator needs of one joint to accept joint values: its servo and ticks."""
+
+    @property
+    def name(self) -> str:
+        """Joint name."""
+
+    @property
+    def servo_id(self) -> int:
+        """Id of the servo that drives it."""
+
+    def to_ticks(self, q: float) -> float:
+        """Servo position [tick] of joint value ``q`` [rad] or [m]."""
+
+    def to_joint(self, ticks: float) -> float:
+        """Joint value [rad] or [m] of servo position ``ticks``."""
+
+
+class JointLookup(typing.Protocol):
+    """Joints by name (a :class:`~armctl.servo.mapping.JointMapping` is one)."""
+
+    @property
+    def joints(self) -> Sequence[SimJoint]:
+        """Every joint."""
+
+    def joint(self, name: str) -> SimJoint:
+        """The joint called ``name``."""
+
+
 class SimulatedBus:
     """Simulated servos on a pty, speaking Dynamixel 2.0 or 1.0, or Feetech SCS/STS.
 
@@ -79,17 +104,22 @@ class SimulatedBus:
         baudrate: Baud rate the servos listen at [bit/s].
         wire_timing: Time replies as on the wire (see the module docstring).
         mapping: Joint mapping, so that :meth:`set_joint` accepts joint names and SI values.
+        clock: Time base of the servos' motion and of scheduled faults (default
+            :func:`~armctl.clock.default_clock`). With a :class:`~armctl.clock.SimulatedClock`
+            the servos move only as simulated time passes; replies go out as soon as a request
+            arrives either way, so a client's read timeout never sees simulated time.
     """
 
     def __init__(self, servos: Iterable[SimServoSpec], protocol: Protocol = Protocol.DYNAMIXEL,
                  baudrate: int = 1_000_000, *, wire_timing: bool = False,
-                 mapping: JointMapping | None = None):
+                 mapping: JointLookup | None = None, clock: Clock | None = None):
         self.protocol = protocol
+        self.clock = clock if clock is not None else default_clock()
         self.baudrate = baudrate
         self.wire_timing = wire_timing
         self.mapping = mapping
         self.servos: list[SimServo] = []
-        family = Family.FEETECH if protocol is Protocol.FEETECH else Family.DYNAMIXEL
+        family = protocol.family
         for s in servos:
             table = table_for(s.model)
             if table.family is not family:
@@ -97,9 +127,10 @@ class SimulatedBus:
                                  f"{protocol.value}")
             if any(o.id == s.servo_id for o in self.servos):
                 raise InputError(f"servo id {s.servo_id} is used twice on the simulated bus")
-            servo = SimServo(table, s.servo_id, baudrate, s.position)
-            if s.multi_turn and not servo.feetech:
-                servo.set(Register.OPERATING_MODE, 4)
+            servo = SimServo(table, s.servo_id, baudrate, s.position, clock=self.clock)
+            mode = VENDORS[family].multi_turn_mode
+            if s.multi_turn and mode is not None:
+                servo.set(Register.OPERATING_MODE, mode)
             if s.homing_offset:
                 servo.set(Register.HOMING_OFFSET, s.homing_offset)
             servo.set_present_position(s.position)
@@ -122,39 +153,6 @@ class SimulatedBus:
         self.requests = 0
         self.trace: list[tuple[str, bytes]] | None = None
 
-    @classmethod
-    def from_spec(cls, spec: ArmSpec, calibration: Calibration | None = None, *,
-                  wire_timing: bool = False) -> SimulatedBus:
-        """A simulated bus with the servos of an arm config, each at its joint's rest value.
-
-        Args:
-            spec: An arm with a ``bus:`` section.
-            calibration: Calibration to build the joint mapping with.
-            wire_timing: Time replies as on the wire.
-        """
-        from armctl.servo.mapping import JointMapping
-
-        mapping = JointMapping.from_spec(spec, calibration)
-        assert spec.bus is not None  # JointMapping.from_spec checked it  # mypy.
-        return cls.from_mapping(mapping, spec.bus.protocol, spec.bus.baudrate,
-                                wire_timing=wire_timing)
-
-    @classmethod
-    def from_mapping(cls, mapping: JointMapping, protocol: Protocol, baudrate: int, *,
-                     wire_timing: bool = False) -> SimulatedBus:
-        """A simulated bus with one servo per mapped joint, each at its joint's rest value.
-
-        Servos start as if configured before: multi-turn joints in extended position mode and
-        the homing offsets the mapping assumes (calibrated, or moving the encoder wrap out of
-        a joint's travel) already stored.
-        """
-        servos = []
-        for j in mapping.joints:
-            t = round(j.to_ticks(j.rest))
-            servos.append(SimServoSpec(j.servo_id, j.model, t if j.multi_turn else t % 4096,
-                                       j.homing_offset, j.multi_turn))
-        return cls(servos, protocol, baudrate, wire_timing=wire_timing, mapping=mapping)
-
     # ---- life cycle -------------------------------------------------------------------------
     def start(self) -> str:
         """Create the pty and start answering; returns the port path."""
@@ -167,7 +165,7 @@ class SimulatedBus:
         self._wake_r, self._wake_w = os.pipe()
         self._outbox.clear()
         self._stop.clear()
-        self._started_at = time.monotonic()
+        self._started_at = self.clock.now()
         self._thread = threading.Thread(target=self._run, name="armctl-simbus", daemon=True)
         self._thread.start()
         return self.port
@@ -258,10 +256,10 @@ class SimulatedBus:
                                  "its torque off first (set_torque(False) or 'armctl torque').")
             servo.set_present_position(ticks)
 
-    def _need_mapping(self) -> JointMapping:
+    def _need_mapping(self) -> JointLookup:
         if self.mapping is None:
             raise InputError("this simulated bus has no joint mapping; build it with "
-                             "SimulatedBus.from_spec(spec) or address servos by id")
+                             "armctl.servo.simulated_bus(spec) or address servos by id")
         return self.mapping
 
     def power_cycle(self, servo_id: int | None = None) -> None:
@@ -291,8 +289,7 @@ class SimulatedBus:
                 self.servo(sid)
             if isinstance(fault, F.HardwareAlarm):
                 servo = self.servo(fault.servo_id)
-                servo.raise_alarm(fault.alarm.feetech_bit if servo.feetech
-                                  else fault.alarm.dynamixel_bit)
+                servo.raise_alarm(servo.vendor.alarm_bit(fault.alarm))
             elif isinstance(fault, F.LockupAfterOverload):
                 servo = self.servo(fault.servo_id)
                 servo.raise_alarm(0x20)
@@ -413,6 +410,7 @@ class SimulatedBus:
                 continue
             last_rx = now
             buf += data
+            self._fire_scheduled()  # due by the clock, which may be simulated: before answering
             for ins in self._wire.frame(buf):
                 self.requests += 1
                 if self.trace is not None:
@@ -427,7 +425,7 @@ class SimulatedBus:
     def _fire_scheduled(self) -> None:
         if not self._scheduled:
             return
-        elapsed = time.monotonic() - self._started_at
+        elapsed = self.clock.now() - self._started_at
         with self._lock:
             due = [f for at, f in self._scheduled if at <= elapsed]
             self._scheduled = [(at, f) for at, f in self._scheduled if at > elapsed]

@@ -10,7 +10,7 @@ combined packet.
 
 from __future__ import annotations
 
-from armctl.servo.sim.servo import ERR_CRC, ERR_INSTRUCTION, SimServo
+from armctl.servo.sim.servo import ERR_ACCESS, ERR_CRC, ERR_INSTRUCTION, SimServo
 from armctl.servo.sim.wire import BROADCAST, DxlWire, FeetechWire, Instruction
 from armctl.servo.tables import Register
 
@@ -88,7 +88,7 @@ class Dispatcher:
         out: list[Reply] = []
         for servo in sorted(targets, key=lambda s: s.id):
             if not ins.valid:
-                if unicast and not servo.feetech:
+                if unicast and servo.vendor.reports_errors:
                     out.append((servo, w.status(servo.id, self._error(servo, ERR_CRC), b"")))
                 continue
             answers = self._replies(servo, ins.inst)  # the level before this instruction
@@ -112,7 +112,7 @@ class Dispatcher:
             addr, n, _ = w.addr_len(p)
             data = servo.read(addr, n)
             if data is None:
-                return (0, bytes(n)) if servo.feetech else (7, b"")
+                return (ERR_ACCESS, b"") if servo.vendor.reports_errors else (0, bytes(n))
             return 0, data
         if ins.inst in (WRITE, REG_WRITE):
             k = w.addr_size
@@ -123,7 +123,7 @@ class Dispatcher:
             return servo.write(addr, bytes(p[k:])), b""
         if ins.inst == ACTION:
             if servo.registered is None:
-                return (0 if servo.feetech else ERR_INSTRUCTION), b""
+                return (ERR_INSTRUCTION if servo.vendor.reports_errors else 0), b""
             addr, data = servo.registered
             servo.registered = None
             return servo.write(addr, data), b""
@@ -136,7 +136,7 @@ class Dispatcher:
         if ins.inst == FACTORY_RESET and not servo.feetech:
             servo.factory_reset(keep_id=p[:1] in (b"\x01", b"\x02"), keep_baud=p[:1] == b"\x02")
             return 0, b""
-        return (0 if servo.feetech else ERR_INSTRUCTION), b""
+        return (ERR_INSTRUCTION if servo.vendor.reports_errors else 0), b""
 
     def _group_read(self, ins: Instruction) -> list[Reply]:
         w = self.wire
@@ -158,9 +158,11 @@ class Dispatcher:
                 continue
             data = servo.read(addr, n)
             err = servo.error_byte
-            if data is None:  # outside the table: Dynamixel access error without params
-                data = bytes(n) if servo.feetech else b""
-                err |= 0 if servo.feetech else 7
+            if data is None:  # outside the table: an access error without params, or zeros
+                if servo.vendor.reports_errors:
+                    data, err = b"", err | ERR_ACCESS
+                else:
+                    data = bytes(n)
             if ins.inst == FAST_SYNC_READ:
                 segments.append((servo.id, err, data.ljust(n, b"\0")))
             else:

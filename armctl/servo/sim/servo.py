@@ -15,24 +15,16 @@ acceleration, speed and holding effort. Homing offsets apply as on the hardware:
 from __future__ import annotations
 
 import math
-import time
 
+from armctl.clock import Clock, default_clock
 from armctl.servo.codec import decode, encode, from_le, to_le
-from armctl.servo.tables import ControlTable, Encoding, Family, Register
+from armctl.servo.tables import ControlTable, Encoding, Register
 
-__all__ = ["DXL_BAUD", "FEETECH_BAUD", "SimServo"]
-
-# Baud-rate codes (e-Manual X series "Baud Rate"; Feetech official INST.h / sms_sts.py).
-DXL_BAUD = {0: 9600, 1: 57600, 2: 115200, 3: 1_000_000, 4: 2_000_000, 5: 3_000_000,
-            6: 4_000_000, 7: 4_500_000}
-FEETECH_BAUD = {0: 1_000_000, 1: 500_000, 2: 250_000, 3: 128_000, 4: 115_200, 5: 76_800,
-                6: 57_600, 7: 38_400}
+__all__ = ["SimServo"]
 
 # Dynamixel error numbers (e-Manual P2 "Error").
 ERR_INSTRUCTION, ERR_CRC, ERR_RANGE, ERR_LENGTH, ERR_LIMIT, ERR_ACCESS = 2, 3, 4, 5, 6, 7
 
-_RPM_TICKS = 0.229 / 60.0 * 4096  # [tick/s] per Dynamixel velocity unit
-_ACC_TICKS = 214.577 / 3600.0 * 4096  # [tick/s^2] per Dynamixel acceleration unit
 _STEP = 0.002  # [s] integration step
 
 
@@ -44,11 +36,15 @@ class SimServo:
         servo_id: Initial id.
         baudrate: Initial baud rate [bit/s] (stored as the model's baud code).
         position: Initial present position [tick].
+        clock: Time base of the motion dynamics (default :func:`~armctl.clock.default_clock`).
     """
 
-    def __init__(self, table: ControlTable, servo_id: int, baudrate: int, position: int = 2048):
+    def __init__(self, table: ControlTable, servo_id: int, baudrate: int, position: int = 2048,
+                 clock: Clock | None = None):
         self.table = table
-        self.feetech = table.family is Family.FEETECH
+        self.clock = clock if clock is not None else default_clock()
+        self.vendor = table.vendor  # units and conventions of the family
+        self.feetech = self.vendor.feetech
         self.mem = bytearray(table.memory_size)
         self._regs = table.registers
         self._present_from = min(table.spec(r).address for r in (
@@ -65,8 +61,8 @@ class SimServo:
         self.obstacle: tuple[float, int] | None = None
         self.model_override: int | None = None
         self.registered: tuple[int, bytes] | None = None
-        self.t = time.monotonic()
-        codes = FEETECH_BAUD if self.feetech else DXL_BAUD
+        self.t = self.clock.now()
+        codes = self.vendor.baud_codes
         code = next((c for c, b in codes.items() if b == baudrate), None)
         if code is None:
             raise ValueError(f"baud rate {baudrate} has no code on {self.table.model}")
@@ -111,7 +107,7 @@ class SimServo:
     @property
     def baudrate(self) -> int:
         """The baud rate the servo listens at [bit/s]."""
-        codes = FEETECH_BAUD if self.feetech else DXL_BAUD
+        codes = self.vendor.baud_codes
         return codes.get(self.get(Register.BAUD_RATE), 0)
 
     @property
@@ -138,11 +134,11 @@ class SimServo:
 
     # ---- position frames ------------------------------------------------------------------
     def _offset(self) -> int:
-        off = self.get(Register.HOMING_OFFSET)
-        if self.feetech:
-            return -off
-        if self.get(Register.OPERATING_MODE) != 4 and abs(off) > 1024:
-            return 0  # position mode honours only offsets within +-1024 (e-Manual)
+        u = self.vendor
+        off = u.homing_sign * self.get(Register.HOMING_OFFSET)
+        if u.multi_turn_mode is not None and abs(off) > u.homing_limit and \
+                self.get(Register.OPERATING_MODE) != u.multi_turn_mode:
+            return 0  # position mode honours only offsets within +-homing_limit (e-Manual)
         return off
 
     def _multi_turn(self) -> bool:
@@ -157,7 +153,7 @@ class SimServo:
 
     def set_present_position(self, ticks: int) -> None:
         """Move the shaft by hand so that the present position reads ``ticks`` (torque off)."""
-        self._update(time.monotonic())
+        self._update(self.clock.now())
         self.actual += ticks - self.present_position()
         self.target = self.actual
         self.velocity = 0.0
@@ -167,7 +163,7 @@ class SimServo:
 
         The shaft cannot move past it from the side it is on (both ways when it is there).
         """
-        self._update(time.monotonic())
+        self._update(self.clock.now())
         at = self.actual
         if ticks is not None:
             delta = ticks - self.present_position()
@@ -188,14 +184,11 @@ class SimServo:
     # ---- dynamics -------------------------------------------------------------------------
     def _limits(self) -> tuple[float, float]:
         vmax = self.table.max_speed
-        if self.feetech:
-            v = float(abs(self.get(Register.PROFILE_VELOCITY)))
-            a = 100.0 * self.get(Register.PROFILE_ACCELERATION)
-        else:
-            v = self.get(Register.PROFILE_VELOCITY) * _RPM_TICKS
-            if v == 0:
-                v = self.get(Register.VELOCITY_LIMIT) * _RPM_TICKS
-            a = self.get(Register.PROFILE_ACCELERATION) * _ACC_TICKS
+        u = self.vendor
+        v = abs(self.get(Register.PROFILE_VELOCITY)) * u.velocity_unit
+        if v == 0 and self.table.has(Register.VELOCITY_LIMIT):
+            v = self.get(Register.VELOCITY_LIMIT) * u.velocity_unit
+        a = self.get(Register.PROFILE_ACCELERATION) * u.acceleration_unit
         v = vmax if v <= 0 else min(v, vmax)
         return v, (8.0 * vmax if a <= 0 else a)
 
@@ -237,10 +230,7 @@ class SimServo:
             load = 1.0
         load = max(-1.0, min(1.0, load))
         self._put(Register.PRESENT_POSITION, self.present_position())
-        if self.feetech:
-            self._put(Register.PRESENT_VELOCITY, round(self.velocity))
-        else:
-            self._put(Register.PRESENT_VELOCITY, round(self.velocity / _RPM_TICKS))
+        self._put(Register.PRESENT_VELOCITY, round(self.velocity / self.vendor.velocity_unit))
         self._put(Register.PRESENT_LOAD, round(1000 * load))
         volts = self.table.nominal_voltage
         if self.alarm_bits & 0x01:
@@ -255,7 +245,7 @@ class SimServo:
 
     def clear_multi_turn(self) -> int:
         """Dynamixel Clear: drop the turn count (0, or Result Fail while moving)."""
-        self._update(time.monotonic())
+        self._update(self.clock.now())
         if abs(self.velocity) > 1.0:
             return 1
         n = self.table.ticks_per_rev
@@ -266,7 +256,7 @@ class SimServo:
     # ---- alarms and reboot ----------------------------------------------------------------
     def raise_alarm(self, bits: int) -> None:
         """Latch hardware alarm bits (family bit layout); overload/overheat drop torque."""
-        self._update(time.monotonic())
+        self._update(self.clock.now())
         self.alarm_bits |= bits
         if bits & 0x24:  # overheating or overload: the servo switches its torque off
             self._put(Register.TORQUE_ENABLE, 0)
@@ -275,7 +265,7 @@ class SimServo:
 
     def reboot(self) -> None:
         """Reboot: RAM back to defaults, alarms and lock-up cleared, position kept."""
-        self._update(time.monotonic())
+        self._update(self.clock.now())
         for spec in self.table.registers.values():
             if spec.address >= self.table.eeprom_end:
                 self._put(spec.register, spec.default)
@@ -291,7 +281,7 @@ class SimServo:
         """The bytes at ``address`` (``None``: outside the table, a Dynamixel access error)."""
         if address < 0 or length < 0 or address + length > self.table.memory_size:
             return None
-        self._update(time.monotonic())
+        self._update(self.clock.now())
         if address + length > self._present_from:  # only then the present state is needed
             self._refresh()
         return bytes(self.mem[address:address + length])
@@ -302,16 +292,16 @@ class SimServo:
         Returns:
             0, or a Dynamixel error number (Feetech always returns 0 and ignores bad writes).
         """
-        self._update(time.monotonic())
+        self._update(self.clock.now())
         end = address + len(data)
         specs = []
         a = address
         while a < end:
             spec = self._cover.get(a)
             if spec is None or not spec.writable:
-                return 0 if self.feetech else ERR_ACCESS
+                return ERR_ACCESS if self.vendor.reports_errors else 0
             if spec.address != a or spec.address + spec.size > end:
-                return 0 if self.feetech else ERR_LENGTH
+                return ERR_LENGTH if self.vendor.reports_errors else 0
             specs.append(spec)
             a += spec.size
         values = {}

@@ -1,0 +1,113 @@
+"""Running a motion command: open the robot, move, close it with the right exit policy."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from armctl.cli._progress import Progress
+
+if TYPE_CHECKING:
+    from armctl.arm import Arm
+    from armctl.motion import MotionPlan
+    from armctl.robot import Robot
+
+#: A plan shorter than this [s] does not move the arm.
+_STILL_TIME = 1e-6
+
+#: Start and goal closer than this [rad]/[m] are the same position.
+_STILL_GAP = 1e-6
+
+
+def open_robot(args: argparse.Namespace, arm: Arm, hold: bool = False) -> Robot:
+    """Open the arm's robot (and its bus), with the command's exit policy (default: hold).
+
+    Without ``hold`` nothing is written to the servos until the first motion (which holds the
+    present pose first), so a plan is checked against the effective limits before torque comes
+    on, and a dry run never switches torque on. With ``--exit-policy park`` the park pose is
+    checked against the config's limits before the bus opens and against the effective limits
+    right after, before anything moves.
+
+    Raises:
+        InputError: ``--exit-policy park`` for an arm without a 'park' pose.
+        JointLimitError: A 'park' pose outside the config's or the effective limits.
+    """
+    from armctl.cli import _checks
+    from armctl.config.motion import ExitPolicy
+    from armctl.robot import Robot
+
+    policy = ExitPolicy(getattr(args, "exit_policy", None) or "hold")
+    if policy is ExitPolicy.PARK:
+        _checks.check_park_pose(arm)
+    speed = getattr(args, "speed", None)
+    robot = Robot.open(arm, speed=speed if speed is not None and speed <= 1 else None,
+                       exit_policy=policy, hold=hold)
+    try:
+        if policy is ExitPolicy.PARK:
+            robot.effective.check(robot.arm.named_pose("park"),
+                                  "the 'park' pose of --exit-policy park")
+    except BaseException:
+        robot.close_holding("the park pose was refused")
+        raise
+    if robot.simulated and not getattr(args, "json", False):
+        print(f"--- SIMULATED BUS: arm {robot.arm.name!r}, no hardware ---", file=sys.stderr)
+    return robot
+
+
+def run_motion(args: argparse.Namespace, fn: Any, arm: Arm) -> Any:
+    """Open the robot, run ``fn(robot, progress)`` and close.
+
+    The exit policy applies only when the command ends normally after a real run: a dry run
+    writes nothing at all; a stop, an error or a signal holds the arm where it is.
+    """
+    from armctl.config.motion import ExitPolicy
+    from armctl.robot import MotionStopped
+
+    robot = open_robot(args, arm)
+    dry = getattr(args, "dry_run", False)
+    progress = Progress(not args.json and not dry)
+    try:
+        result = fn(robot, progress)
+        progress.done()
+    except BaseException as exc:
+        progress.done()
+        if isinstance(exc, MotionStopped) and not args.json:
+            from armctl.cli import _motion_report
+
+            print(_motion_report.stop_text(robot, exc), flush=True)
+        robot.close_holding("the motion was stopped" if isinstance(exc, MotionStopped)
+                            else "the command failed")
+        raise
+    guard = getattr(args, "signal_guard", None)
+    if dry:  # nothing was written to the servos, and nothing will be
+        if robot.exit_policy is not ExitPolicy.HOLD:
+            print(f"armctl: dry run: --exit-policy {robot.exit_policy.value} not applied "
+                  "(nothing was written to the servos)", file=sys.stderr)
+        robot.close(ExitPolicy.HOLD)
+    elif guard is not None and guard.signalled:  # a signal after the motion: no exit policy
+        robot.close_holding("signal received")
+    else:
+        robot.close()
+    return robot, result
+
+
+def nothing_to_do(plan: MotionPlan, endpoints: bool = True,
+                   still: float | np.ndarray = _STILL_GAP) -> bool:
+    """Whether a plan does not move the arm (zero duration, or start = goal without events).
+
+    ``still``: start and goal closer than this on every joint are the same position [rad]/[m]
+    (a scalar or ``(dof,)``, e.g. one servo tick).
+    """
+    if plan.duration < _STILL_TIME:
+        return True
+    gap = np.abs(plan.goal - plan.start)
+    return endpoints and not plan.events and bool(np.all(gap < still))
+
+def one_tick(robot: Robot) -> np.ndarray:
+    """One servo tick of every joint in joint units ``(dof,)`` [rad]/[m] (at least 1e-6)."""
+    eff = robot.effective
+    tick = {j.name: j.margin / max(eff.margin_ticks, 1) for j in eff.joints}
+    return np.maximum([tick.get(n, 0.0) for n in robot.arm.joint_names], _STILL_GAP)

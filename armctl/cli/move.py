@@ -1,0 +1,220 @@
+"""Motion commands that move to one goal: move-to-pose, move-joints, home, park."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from armctl.cli._common import add_config, add_json, emit, finite, load_arm_arg, parse_angles
+from armctl.cli._motion_report import plan_data, plan_text, reached_joints, stream_text
+from armctl.cli._motion_run import nothing_to_do, one_tick, run_motion
+from armctl.cli._progress import Progress
+from armctl.errors import InputError
+
+if TYPE_CHECKING:
+    from armctl.arm import Arm
+    from armctl.ik import IKResult
+    from armctl.motion import MotionPlan
+    from armctl.robot import MoveReport, Robot
+
+ORDER = 40
+
+
+def _add_move_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--speed", type=finite, default=None,
+                   help="speed factor of the joint limits, 0.01 to 1 (default: the config's)")
+    p.add_argument("--dry-run", action="store_true", help="print the plan, move nothing")
+    p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None,
+                   help="what to do when the command ends normally (default: hold); a stopped "
+                        "motion always holds where it stopped")
+    p.set_defaults(stop_signals=True)  # SIGINT, SIGTERM, SIGHUP stop the motion (cli main)
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add move-to-pose, move-joints, home and park."""
+    p = sub.add_parser("move-to-pose", help="move the tool to a position (and orientation)",
+                       description="Solve IK for the goal, plan a synchronised move (or a "
+                       "straight line with --linear), stream it, and report the reached pose "
+                       "(FK of the joints read back). Unreachable goals move nothing (exit 3).")
+    add_config(p)
+    from armctl.cli.ik import add_goal_arguments
+
+    add_goal_arguments(p)  # --xyz, --rpy/--quat/--direction, --frame, --tol-pos, --tol-rot
+    p.add_argument("--deg", action="store_true", help="--rpy in degrees")
+    p.add_argument("--linear", action="store_true", help="move the tool along a straight line")
+    p.add_argument("--solver", default="auto", help="IK solver (default auto)")
+    p.add_argument("--force-pose", action="store_true",
+                   help="move to a full pose (--rpy/--quat) even when fewer than 6 joints move "
+                        "the frame (such a pose is reachable only on a 5-DOF subset)")
+    _add_move_options(p)
+    add_json(p)
+    p.set_defaults(func=cmd_move_to_pose)
+
+    p = sub.add_parser("move-joints", help="move every joint to the given values together")
+    add_config(p)
+    p.add_argument("values", nargs="+", metavar="Q", help="one value per joint [rad] or [m]")
+    p.add_argument("--deg", action="store_true", help="rotary joint values in degrees")
+    _add_move_options(p)
+    add_json(p)
+    p.set_defaults(func=cmd_move_joints)
+
+    for name, what in (("home", "the 'home' pose"), ("park", "the 'park' rest pose")):
+        p = sub.add_parser(name, help=f"move to {what}")
+        add_config(p)
+        _add_move_options(p)
+        add_json(p)
+        p.set_defaults(func=cmd_named, pose=name)
+
+
+def cmd_move_to_pose(args: argparse.Namespace) -> int:
+    """``armctl move-to-pose``."""
+    from armctl.cli import _checks
+    from armctl.cli.ik import build_goals, check_pose_dof
+
+    if args.xyz is None:
+        raise InputError("move-to-pose needs --xyz X Y Z (optionally with --rpy, --quat or "
+                         "--direction)")
+    arm = load_arm_arg(args)
+    (goal,) = build_goals(args, arm)
+    if not args.force_pose:  # as armctl ik: a 6-DOF pose for fewer joints, refused at once
+        check_pose_dof(arm, (goal,))
+    _checks.check_speed_arg(args, arm)
+    _checks.check_solver(args.solver)
+    _checks.check_goal_reach(arm, goal, args.solver)
+
+    def go(robot: Robot, progress: Progress) -> MoveReport:
+        def show(plan: MotionPlan, ik: IKResult | None) -> bool:
+            """Print the plan; whether to run it (not when it does not move the arm)."""
+            if nothing_to_do(plan):
+                return False
+            head = (f"arm {robot.arm.name}: goal xyz {np.round(args.xyz, 4).tolist()} m "
+                    f"({type(goal).__name__}); "
+                    + (f"IK solver {ik.solver} ({ik.iterations} iterations, "
+                       f"{ik.position_error * 1000:.3f} mm)" if ik else "straight line"))
+            if not args.json:
+                print(plan_text(robot, plan, head), flush=True)
+            return not args.dry_run
+
+        return robot.move_to_pose(goal, linear=args.linear, speed=args.speed,
+                                  solver=args.solver, on_cycle=progress, on_plan=show)
+
+    robot, report = run_motion(args, go, arm)
+    data: dict[str, Any] = {"plan": plan_data(robot, report.plan),
+                            "solver": report.ik.solver if report.ik else None}
+    idle = "already at the goal; nothing to do" if nothing_to_do(report.plan) else None
+    sdata, stext = stream_text(robot, report, idle)
+    data.update(sdata)
+    text = stext
+    if report.reached is not None:
+        from armctl.spatial import matrix_to_rpy
+
+        rpy_rad = matrix_to_rpy(report.reached[:3, :3])
+        rpy = np.degrees(rpy_rad)
+        data.update({"reached_xyz": report.reached[:3, 3], "reached_rpy": rpy_rad,
+                     "position_error": report.position_error,
+                     "rotation_error": report.rotation_error})
+        text += (f"\nreached xyz {np.round(report.reached[:3, 3], 4).tolist()} m, rpy "
+                 f"{np.round(rpy, 1).tolist()} deg (FK of the joints read back)\n"
+                 f"remaining error {report.position_error * 1000:.2f} mm, "
+                 f"{math.degrees(report.rotation_error):.2f} deg")
+    emit(args, data, text)
+    return 0
+
+
+def cmd_move_joints(args: argparse.Namespace) -> int:
+    """``armctl move-joints``."""
+    from armctl.cli import _checks
+
+    arm = load_arm_arg(args)
+    q = parse_angles(args.values, args.deg, arm, "move-joints values")
+    _check_values(arm, q, args.deg)
+    _checks.check_speed_arg(args, arm)
+    return _joint_command(args, arm, lambda robot: q, "move to joint values",
+                          "already at these joint values; nothing to do")
+
+def cmd_named(args: argparse.Namespace) -> int:
+    """``armctl home`` and ``armctl park``."""
+    from armctl.cli import _checks
+
+    arm = load_arm_arg(args)
+    _checks.check_named_pose(arm, args.pose)
+    _checks.check_speed_arg(args, arm)
+    return _joint_command(args, arm, lambda robot: robot.arm.named_pose(args.pose),
+                          f"move to the {args.pose!r} pose",
+                          f"already at the {args.pose!r} pose; nothing to do")
+
+def _check_values(arm: Arm, q: np.ndarray, deg: bool) -> None:
+    """Refuse joint values outside the limits, saying so in the unit they were given in.
+
+    The message names the limit's source as the effective limits do (the config's file, line
+    and key, and how to change it); ``details["limit_source"]`` is ``"config"`` (the
+    calibration and the servo registers are checked once the bus is open).
+
+    Raises:
+        JointValueError: For the first joint outside its limits; without ``--deg`` a rotary
+            value that would be inside its limits in degrees adds "did you forget --deg?".
+    """
+    from armctl.config.schema import JointType
+    from armctl.robot.errors import JointValueError
+    from armctl.servo.effective_limits import effective_limits
+
+    for i, name in enumerate(arm.joint_names):
+        v, lo, hi = float(q[i]), float(arm.lower[i]), float(arm.upper[i])
+        if lo - 1e-9 <= v <= hi + 1e-9:
+            continue
+        limits = effective_limits(arm.spec)
+        hint = limits.explain(name, v)
+        if arm.joint_types[i] is JointType.PRISMATIC:
+            unit, scale = "m", 1.0
+        elif deg:
+            unit, scale = "deg", math.degrees(1.0)
+        else:
+            unit, scale = "rad", 1.0
+            if lo <= math.radians(v) <= hi:
+                hint = f"Did you forget --deg? ({v:g} deg is inside the limits) {hint}"
+        exc = JointValueError(
+            name, v, lo, hi, f"joint {name!r}: {v * scale:.6g} {unit} is outside its limits "
+            f"[{lo * scale:.6g}, {hi * scale:.6g}] {unit} (goal of move-joints); nothing was "
+            f"sent. {hint}")
+        exc.details["limit_source"] = limits.joint(name).bound(v).source.value
+        raise exc
+
+def _joint_command(args: argparse.Namespace, arm: Arm, target: Any, what: str, idle: str
+                   ) -> int:
+    still: list[bool] = []
+
+    def go(robot: Robot, progress: Progress) -> MoveReport:
+        from armctl.robot import MoveReport
+
+        plan = robot.plan_joints(target(robot), args.speed, what)
+        if nothing_to_do(plan, still=one_tick(robot)):  # a servo cannot get any closer
+            still.append(True)
+            if not args.json:  # before what the exit policy says
+                print(idle, flush=True)
+            return MoveReport(plan)
+        if not args.json:
+            print(plan_text(robot, plan, f"arm {robot.arm.name}"), flush=True)
+        if args.dry_run:
+            return MoveReport(plan)
+        res = robot.execute(plan, progress)
+        return MoveReport(plan, res, reached=robot.arm.fk(res.final))
+
+    robot, report = run_motion(args, go, arm)
+    data: dict[str, Any] = {"plan": plan_data(robot, report.plan)}
+    if still:
+        data.update(moved=False, nothing_to_do=True)
+        if args.json:
+            emit(args, data, idle)
+        return 0
+    sdata, text = stream_text(robot, report)
+    data.update(sdata)
+    if report.result is not None and report.reached is not None:
+        rdata, rtext = reached_joints(robot, report.plan.goal, report.result.final,
+                                       report.reached)
+        data.update(rdata)
+        text += "\n" + rtext
+    emit(args, data, text)
+    return 0
