@@ -141,7 +141,7 @@ def test_config_and_tables_do_not_import_the_servo_package() -> None:
 
 def test_simulator_imports_tables_and_codec_only_from_servo() -> None:
     graph = import_graph()
-    allowed = {"armctl.servo.codec", "armctl.servo.tables"}
+    allowed = {"armctl.servo.codec"}
     for mod, deps in graph.items():
         if mod == "armctl.servo.sim" or mod.startswith("armctl.servo.sim."):
             servo = {d for d in deps if d.startswith("armctl.servo.")

@@ -197,7 +197,7 @@ def _firmware(bus: Any, found: Any) -> str | None:
     registers (``major.minor`` where the table has both).
     """
     from armctl.servo.errors import ServoBusError
-    from armctl.servo.tables import Register, table_for
+    from armctl.servo_tables import Register, table_for
 
     if found.firmware is not None:
         return str(found.firmware)

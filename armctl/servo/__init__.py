@@ -31,7 +31,7 @@ from armctl.servo.sim.faults import (
 )
 from armctl.servo.simulated_arm import simulated_bus, simulated_bus_for
 from armctl.servo.status import Feedback, PingResult
-from armctl.servo.tables import Family, Register, Vendor
+from armctl.servo_tables import Family, Register, Vendor
 
 __all__ = [
     "Alarm",

@@ -24,7 +24,7 @@ from armctl.servo.driver import Feedback, ServoBus
 from armctl.servo.mapping import JointMapping
 from armctl.servo.sim.bus import SimulatedBus
 from armctl.servo.simulated_arm import simulated_bus_for
-from armctl.servo.tables import Alarm, Register, table_for
+from armctl.servo_tables import Alarm, Register, table_for
 from armctl.typing import Array
 
 __all__ = ["ArmBus", "JointState"]

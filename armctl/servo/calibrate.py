@@ -26,7 +26,7 @@ from collections.abc import Mapping
 from armctl.errors import InputError
 from armctl.servo.arm_bus import ArmBus
 from armctl.servo.calibration import Calibration, JointCalibration
-from armctl.servo.tables import Register, table_for
+from armctl.servo_tables import Register, table_for
 
 __all__ = ["Calibrator"]
 

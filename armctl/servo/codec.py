@@ -9,7 +9,7 @@
 
 from __future__ import annotations
 
-from armctl.servo.tables import Encoding, RegisterSpec
+from armctl.servo_tables import Encoding, RegisterSpec
 
 __all__ = [
     "crc16",

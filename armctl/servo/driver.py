@@ -25,7 +25,7 @@ from armctl.servo.codec import decode, encode, from_le, to_le
 from armctl.servo.replies import ReplyLedger, Window
 from armctl.servo.sdk import IO_ERRORS, Dxl1Sdk, DxlSdk, FeetechSdk, Sdk
 from armctl.servo.status import Feedback, PingResult, StatusStyle, alarms_in, refusal
-from armctl.servo.tables import (
+from armctl.servo_tables import (
     VENDORS,
     Alarm,
     ControlTable,

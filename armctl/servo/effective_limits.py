@@ -36,7 +36,7 @@ from armctl.errors import ConfigError, JointLimitError, KeyPath
 from armctl.servo.arm_bus import ArmBus
 from armctl.servo.calibration import Calibration
 from armctl.servo.mapping import JointMap, JointMapping, LimitSource, calibrated_range
-from armctl.servo.tables import Register, table_for
+from armctl.servo_tables import Register, table_for
 from armctl.typing import Array
 
 __all__ = [

@@ -30,7 +30,7 @@ import numpy.typing as npt
 from armctl.config.schema import ArmSpec, JointType
 from armctl.errors import ConfigError, InputError, JointLimitError, UnknownNameError
 from armctl.servo.calibration import Calibration, JointCalibration
-from armctl.servo.tables import Vendor, table_for
+from armctl.servo_tables import Vendor, table_for
 
 __all__ = ["JointMap", "JointMapping", "LimitSource"]
 

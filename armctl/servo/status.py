@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from enum import Enum
 
 from armctl.config.bus import Protocol
-from armctl.servo.tables import Alarm, alarms_from_bits
+from armctl.servo_tables import Alarm, alarms_from_bits
 
 __all__ = ["Feedback", "PingResult", "StatusStyle", "alarms_in", "refusal"]
 

@@ -16,7 +16,7 @@ from armctl_testpaths import REPO
 from armctl.cli import main
 from armctl.servo import Register
 from armctl.servo.sim.bus import SimulatedBus
-from armctl.servo.tables import table_for
+from armctl.servo_tables import table_for
 
 pytestmark = [pytest.mark.timeout(60), pytest.mark.usefixtures("simulated_time")]
 

@@ -17,7 +17,7 @@ from armctl.servo.errors import (
     PortError,
     ServoRejectedError,
 )
-from armctl.servo.tables import TABLES, Family, table_for
+from armctl.servo_tables import TABLES, Family, table_for
 
 pytestmark = pytest.mark.timeout(20)
 Pair = tuple[SimulatedBus, ServoBus]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from armctl.servo.codec import crc16, decode, encode, feetech_checksum, stuff, unstuff
-from armctl.servo.tables import Register, table_for
+from armctl.servo_tables import Register, table_for
 
 
 def test_crc16_check_value_and_manual_packets() -> None:

@@ -33,7 +33,7 @@ from armctl.servo.sim.dispatch import REBOOT, Dispatcher, Reply
 from armctl.servo.sim.serialspeed import client_baudrate
 from armctl.servo.sim.servo import SimServo
 from armctl.servo.sim.wire import BROADCAST, DxlWire, FeetechWire, Instruction
-from armctl.servo.tables import VENDORS, Register, table_for
+from armctl.servo_tables import VENDORS, Register, table_for
 
 __all__ = ["JointLookup", "SimJoint", "SimServoSpec", "SimulatedBus"]
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from armctl.servo.sim.servo import ERR_ACCESS, ERR_CRC, ERR_INSTRUCTION, SimServo
 from armctl.servo.sim.wire import BROADCAST, DxlWire, FeetechWire, Instruction
-from armctl.servo.tables import Register
+from armctl.servo_tables import Register
 
 __all__ = ["Dispatcher"]
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from armctl.servo.tables import Alarm
+from armctl.servo_tables import Alarm
 
 __all__ = [
     "Alarm",

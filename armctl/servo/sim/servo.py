@@ -1,6 +1,6 @@
 """One simulated servo: its control table memory, access rules and motion dynamics.
 
-Memory follows the model's :class:`~armctl.servo.tables.ControlTable`. Writes are checked like the
+Memory follows the model's :class:`~armctl.servo_tables.ControlTable`. Writes are checked like the
 real servo checks them: Dynamixel answers with an error number (0x04 range, 0x05 length,
 0x06 limit, 0x07 access, including an EEPROM write while torque is on); Feetech silently ignores
 EEPROM writes while the EEPROM is locked or torque is on, and clamps goals to its angle limits.
@@ -18,7 +18,7 @@ import math
 
 from armctl.clock import Clock, default_clock
 from armctl.servo.codec import decode, encode, from_le, to_le
-from armctl.servo.tables import ControlTable, Encoding, Register
+from armctl.servo_tables import ControlTable, Encoding, Register
 
 __all__ = ["SimServo"]
 
