@@ -4,7 +4,10 @@ Load an arm with :func:`load_arm`, then compute poses (``arm.fk``), Jacobians
 (``arm.jacobian``) and more. Units are SI throughout: metres, radians, seconds.
 """
 
-from armctl.arm import Arm, load_arm
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 from armctl.errors import (
     ArmctlError,
     BusError,
@@ -16,6 +19,9 @@ from armctl.errors import (
     PlanningError,
     UnknownNameError,
 )
+
+if TYPE_CHECKING:
+    from armctl.arm import Arm, load_arm
 
 __version__ = "0.1.0"
 
@@ -33,3 +39,18 @@ __all__ = [
     "__version__",
     "load_arm",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """``Arm`` and ``load_arm``, imported on first use.
+
+    ``import armctl`` stays light (NumPy and the compiled kernels load with the first arm), so
+    the command line starts fast.
+    """
+    if name in ("Arm", "load_arm"):
+        from armctl import arm
+
+        value = getattr(arm, name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

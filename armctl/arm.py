@@ -70,8 +70,10 @@ class Arm(KinematicModel):
         pose: Goal | npt.ArrayLike,
         q_ref: npt.ArrayLike | None = None,
         frame: str | None = None,
+        *,
+        variants: bool = False,
     ) -> IKSolutions:
-        """Every inverse kinematics solution of a goal, in closed form.
+        """Every distinct inverse kinematics solution of a goal, in closed form.
 
         Args:
             pose: A ``(4, 4)`` pose, or a :class:`armctl.ik.PoseGoal`, ``DirectionGoal`` or
@@ -79,6 +81,9 @@ class Arm(KinematicModel):
             q_ref: Reference joint vector [rad]: solutions are sorted by distance to it and
                 redundant joints are held at its values; the middle of the ranges when ``None``.
             frame: The frame a pose array is for (the tool frame when ``None``).
+            variants: Also list every 2 pi variant of each solution that fits in the joint
+                ranges (by default each solution is one row: its variant inside the limits
+                nearest to ``q_ref``).
 
         Returns:
             The solutions, each marked inside or outside the joint limits, with its FK residual,
@@ -89,7 +94,7 @@ class Arm(KinematicModel):
         """
         from armctl.ik.analytic import ik_all
 
-        return ik_all(self, pose, q_ref, frame)
+        return ik_all(self, pose, q_ref, frame, variants=variants)
 
 
 def load_arm(path: str | Path, tip: str | None = None) -> Arm:

@@ -27,13 +27,12 @@ purpose: SIGTERM and SIGHUP end a command the way Ctrl-C does, past ``except Exc
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path, PurePath
 from typing import Any
-
-import numpy as np
 
 __all__ = [
     "ArmctlError",
@@ -59,16 +58,17 @@ def json_safe(value: Any) -> Any:
     """
     if value is None or isinstance(value, (str, bool)):
         return value
-    if isinstance(value, np.bool_):
+    np = sys.modules.get("numpy")  # NumPy values exist only once NumPy is imported
+    if np is not None and isinstance(value, np.bool_):
         return bool(value)
-    if isinstance(value, (int, np.integer)):
+    if isinstance(value, int) or (np is not None and isinstance(value, np.integer)):
         return int(value)
-    if isinstance(value, (float, np.floating)):
+    if isinstance(value, float) or (np is not None and isinstance(value, np.floating)):
         f = float(value)
         return f if math.isfinite(f) else (None if math.isnan(f) else ("inf" if f > 0 else "-inf"))
     if isinstance(value, Mapping):
         return {str(k): json_safe(v) for k, v in value.items()}
-    if isinstance(value, np.ndarray):
+    if np is not None and isinstance(value, np.ndarray):
         return json_safe(value.tolist())
     if isinstance(value, (list, tuple)):
         return [json_safe(v) for v in value]

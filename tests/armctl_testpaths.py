@@ -13,6 +13,7 @@ REPO = Path(__file__).parent.parent
 CONFIGS = REPO / "configs"
 
 #: Every bundled arm; a missing file fails the tests that use it.
-BUNDLED = ("so101", "omx", "wx250s", "ur5e", "panda", "torso")
+BUNDLED = ("so101", "omx", "wx250s", "ur5e", "panda", "torso", "so101_leader", "koch_follower",
+           "koch_leader")
 #: Bundled arms that have an independent reference URDF in tests/data/urdf.
 WITH_URDF = ("so101", "omx", "wx250s", "ur5e", "panda")

@@ -137,7 +137,7 @@ def bench_pose_arm(label: str, arm: Arm, goals: int, rng: np.random.Generator) -
 
     ours_counts = [len({tuple(np.round(np.mod(r + 1e-7, 2 * np.pi), 6))
                         for r in ik_all(arm, g).q[:, list(arm.chain())]}) for g in poses]
-    n_rows = np.mean([len(ik_all(arm, g)) for g in poses])
+    n_rows = np.mean([len(ik_all(arm, g, variants=True)) for g in poses])
     t_ours = per_call(cycle(lambda g: ik_all(arm, g)), goals)
     rows.append(f"| {label} | armctl `ik_all` ({family}) | {t_ours:.1f} | "
                 f"{np.mean(ours_counts):.2f} | {n_rows:.1f} |")
@@ -149,7 +149,7 @@ def bench_pose_arm(label: str, arm: Arm, goals: int, rng: np.random.Generator) -
 
     def kernel(g: np.ndarray) -> object:
         return pose6(code, dec.inverted, c.h, c.o, c.m, c.index, c.sign, dec.columns, dec.mask,
-                     ref, g, jd, fd, paths, f, 1e-9, arm.lower, arm.upper)
+                     ref, g, jd, fd, paths, f, 1e-9, arm.lower, arm.upper, True)
 
     rows.append(f"| {label} | armctl compiled core (`pose6`, no Python wrapper) | "
                 f"{per_call(cycle(kernel), goals):.1f} | same | same |")
@@ -200,7 +200,7 @@ def general_kernel(a: Arm) -> Callable[[np.ndarray], Any]:
 
     def kernel(g: np.ndarray) -> Any:
         return pose6(GENERAL, False, c.h, c.o, c.m, c.index, c.sign, cols, mask, ref, g,
-                     jd, fd, paths, f, 1e-9, a.lower, a.upper)
+                     jd, fd, paths, f, 1e-9, a.lower, a.upper, True)
 
     return kernel
 
@@ -262,8 +262,10 @@ def main() -> int:
              "microseconds, Python call included (best of 15 runs over all goals); solutions: mean "
              "distinct "
              "configurations per goal that reach the goal within 1e-9 m and 1e-9 rad by "
-             "armctl's FK (ik-geo rows: its own FK); rows: what `ik_all` lists (every "
-             "in-limit 2 pi variant).", "",
+             "armctl's FK (ik-geo rows: its own FK); rows: what `ik_all(..., variants=True)` "
+             "lists (every in-limit 2 pi variant; by default it lists one row per solution). "
+             "The reference robots against EAIK: section \"Analytic IK on the reference robots, "
+             "against EAIK\".", "",
              "| arm | solver | us / call | solutions | rows |", "|---|---|---:|---:|---:|"]
     for label, arm in arms:
         lines += bench_pose_arm(label, arm, args.goals, rng)

@@ -6,7 +6,8 @@ achieved rate with the limit computed from the packet lengths and return delays.
 with wire timing off gives the software cost per cycle; the calling thread's CPU time per cycle
 is the Python overhead of armctl plus the SDK (the simulator runs in another thread).
 
-Usage: python tools/bench_bus.py [--cycles N] [--no-write]
+Usage: python tools/bench_bus.py [--cycles N] [--no-write] [--json OUT] [--before IN
+[--before-label TEXT]]
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from armctl.config import load_spec
 from armctl.config.bus import Protocol
@@ -31,21 +33,30 @@ from armctl.servo import ArmBus, Register
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _benchdoc import write_section
 
-# packet sizes [bytes] (Dynamixel 2.0: header 7 + INST + params + CRC 2; Feetech: header 4 +
-# INST/ERR + params + checksum), for N servos and D data bytes each
-SIZES = {
-    Protocol.DYNAMIXEL: {"read_inst": lambda n: 14 + n, "reply": lambda d: 11 + d,
-                         "write": lambda n, d: 14 + n * (1 + d)},
-    Protocol.FEETECH: {"read_inst": lambda n: 8 + n, "reply": lambda d: 6 + d,
-                       "write": lambda n, d: 8 + n * (1 + d)},
-}
+
+def cycle_bytes(protocol: Protocol, n: int, size: int) -> int:
+    """Bytes on the wire in one cycle: the sync read, ``n`` status packets, the sync write.
+
+    Args:
+        protocol: Wire protocol.
+        n: Servos.
+        size: Data bytes per servo (the goal / present position register).
+    """
+    if protocol is Protocol.DYNAMIXEL:
+        # e-Manual Protocol 2.0: header FF FF FD 00, ID, LEN (2), INST, params, CRC (2);
+        # sync read/write params: start address (2), data length (2), then per servo its id
+        # (and its data); a status packet: header, ID, LEN (2), INST 0x55, ERR, data, CRC (2)
+        read, status, write = 10 + 4 + n, 11 + size, 10 + 4 + n * (1 + size)
+    else:
+        # Feetech SCS/STS (Protocol 1.0 framing): FF FF, ID, LEN, INST or ERR, params, checksum;
+        # sync read/write params: start address, data length, then per servo its id (and data)
+        read, status, write = 6 + 2 + n, 6 + size, 6 + 2 + n * (1 + size)
+    return read + n * status + write
 
 
 def limit(protocol: Protocol, n: int, size: int, baud: int, delays: list[float]) -> float:
-    """Cycles per second the wire allows: bytes x 10 bit / baud plus the return delays."""
-    s = SIZES[protocol]
-    nbytes = s["read_inst"](n) + n * s["reply"](size) + s["write"](n, size)
-    return 1.0 / (nbytes * 10.0 / baud + sum(delays))
+    """Cycles per second the wire allows: 10 bit times a byte (8N1) plus the return delays [s]."""
+    return 1.0 / (cycle_bytes(protocol, n, size) * 10.0 / baud + sum(delays))
 
 
 @contextlib.contextmanager
@@ -60,7 +71,11 @@ def standalone_sim(config: str, wire: bool) -> Iterator[str]:
         assert proc.stdout is not None and proc.stdin is not None
         head = ""
         while not head.rstrip().endswith("}"):
-            head += proc.stdout.readline()
+            line = proc.stdout.readline()
+            if not line:  # end of file: the simulator exited (its error is on stderr)
+                raise SystemExit(f"'armctl sim {config}' exited with code {proc.wait()} "
+                                 "before printing its port")
+            head += line
         yield json.loads(head)["port"]
         proc.stdin.write("quit\n")
         proc.stdin.flush()
@@ -104,8 +119,16 @@ def run(config: str, cycles: int, wire: bool, separate: bool) -> dict[str, float
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=2000)
+    parser.add_argument("--no-write", action="store_true",
+                        help="print the table only; leave docs/benchmarks.md alone")
+    parser.add_argument("--json", type=Path, help="also save the measurements in this file")
+    parser.add_argument("--before", type=Path,
+                        help="measurements saved (--json) by an earlier version, to compare")
+    parser.add_argument("--before-label", default="before",
+                        help="what the earlier version was, for the comparison table")
     args = parser.parse_args()
     rows = []
+    saved: list[dict[str, Any]] = []
     load_before = os.getloadavg()[0]
     for name, config in (("Dynamixel 2.0 (6 x XM430, UR5e)", "ur5e"),
                          ("Feetech STS (6 x STS3215, SO-101)", "so101")):
@@ -119,13 +142,20 @@ def main() -> None:
                         f"({100 * typical / timed['limit']:.0f} %) | "
                         f"{1e3 * free['median']:.3f} | {1e3 * free['cpu']:.3f} |")
             print(rows[-1], flush=True)
+            saved.append({"bus": name, "simulator": where, "limit": timed["limit"],
+                          "mean": rate, "median": typical, "software": free["median"],
+                          "python": free["cpu"]})
+    if args.json is not None:
+        args.json.write_text(json.dumps({"rows": saved}, indent=1), encoding="utf-8")
     md = "\n".join([
         "## Servo bus: closed-loop sync read + sync write (`tools/bench_bus.py`)",
         "",
         "One cycle = `ArmBus.read_joints()` (one sync read of 6 present positions, error bytes "
         "checked) + `ArmBus.write_joints()` (limits checked, one sync write of 6 goals), "
         "through the real SDKs on the simulated bus at 1 Mbps. *Limit*: the wire time of the "
-        "cycle's packets (10 bit times a byte) plus the servos' return delays (0 here). "
+        "cycle's packets (for N servos and D data bytes each: Dynamixel 2.0 sync read 14 + N "
+        "bytes, status packets 11 + D, sync write 14 + N (1 + D); Feetech 8 + N, 6 + D and "
+        "8 + N (1 + D); 10 bit times a byte) plus the servos' return delays (0 here). "
         "*Achieved*: from the mean cycle time, and from the median one (robust to cycles "
         "that waited for a core on a busy machine). *Software*: the median cycle with wire "
         "timing off; *Python*: the CPU time of the calling "
@@ -141,10 +171,35 @@ def main() -> None:
         f"Load average of the machine during the run: {load_before:.1f} at the start, "
         f"{os.getloadavg()[0]:.1f} at the end (on a busy machine the simulator's and the host's "
         "thread wake-ups wait for a core, and that time adds to every cycle).",
+        *(_comparison(args.before, args.before_label, saved) if args.before else []),
     ])
     cmd = "python tools/bench_bus.py" + (f" --cycles {args.cycles}" if args.cycles != 2000
                                          else "")
-    print(write_section("bus", md, cmd))
+    if args.before is not None:
+        cmd += f" --before {args.before.name} --before-label '{args.before_label}'"
+    if args.no_write:
+        print(md)
+    else:
+        print(write_section("bus", md, cmd))
+
+
+def _comparison(path: Path, label: str, now: list[dict[str, Any]]) -> list[str]:
+    """Markdown lines comparing these measurements with those saved in ``path``."""
+    before = {(r["bus"], r["simulator"]): r for r in json.loads(path.read_text())["rows"]}
+    lines = ["", f"Compared with {label} (measured by this tool in the same session, "
+             "`--json`):", "",
+             "| bus | simulator | median cycle, before | median cycle, now | "
+             "Python before [ms/cycle] | Python now [ms/cycle] |",
+             "|---|---|---:|---:|---:|---:|"]
+    for r in now:
+        b = before.get((r["bus"], r["simulator"]))
+        if b is None:
+            continue
+        lines.append(f"| {r['bus']} | {r['simulator']} | "
+                     f"{100 * b['median'] / b['limit']:.0f} % | "
+                     f"{100 * r['median'] / r['limit']:.0f} % | "
+                     f"{1e3 * b['python']:.3f} | {1e3 * r['python']:.3f} |")
+    return lines
 
 
 if __name__ == "__main__":

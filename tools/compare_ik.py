@@ -105,18 +105,31 @@ def solve(arm: Arm, solver: str, goals: list, q0: np.ndarray, budget: int, seed:
 
 def iteration_cost(arm: Arm, solver: str, q_goals: np.ndarray,
                    frames: tuple[str | None, ...]) -> float:
-    """Median wall time of one iteration [us]: 300 iterations towards unreachably tight pose
-    goals, so no run ends early."""
+    """Median wall time of one iteration [us] over 20 pose goals.
+
+    Per goal: the time of a run of up to 300 iterations towards an unreachably tight pose goal
+    minus that of a run of 1 iteration, per extra iteration, so that the fixed cost of a call and
+    of the check of its answer cancel (a ``dls`` run ends early once round-off stops its
+    progress).
+    """
     tight = Tolerance(1e-300, 1e-300)
+    params = replace(_PARAMS[_METHODS[solver]], window=10**6)
     out = []
     for i, q in enumerate(q_goals[:20]):
-        goals = [PoseGoal(arm.fk(q, f), frame=f, tolerance=tight) for f in frames]
-        opts = IKOptions(max_iterations=300, restarts=0, time_limit=5.0, seed=i)
-        params = replace(_PARAMS[_METHODS[solver]], window=10**6)
-        t0 = time.perf_counter()
-        res = run_method(solver, arm, tuple(goals), arm.middle(), opts, (), params=params)
-        out.append((time.perf_counter() - t0) / max(res.iterations, 1))
-    return float(np.median(out)) * 1e6
+        goals = tuple(PoseGoal(arm.fk(q, f), frame=f, tolerance=tight) for f in frames)
+
+        def timed(budget: int, goals: tuple[PoseGoal, ...] = goals,
+                  seed: int = i) -> tuple[float, int]:
+            opts = IKOptions(max_iterations=budget, restarts=0, time_limit=5.0, seed=seed)
+            t0 = time.perf_counter()
+            res = run_method(solver, arm, goals, arm.middle(), opts, (), params=params)
+            return time.perf_counter() - t0, res.iterations
+
+        t_long, n_long = timed(300)
+        t_short, n_short = timed(1)
+        if n_long > n_short:
+            out.append((t_long - t_short) / (n_long - n_short))
+    return float(np.median(out)) * 1e6 if out else float("nan")
 
 
 # ---- singular goals ---------------------------------------------------------------------------
@@ -499,18 +512,19 @@ descent and their combination) as a solver that `arm.ik(goal, solver=...)`,
 Common to all: goals of every type ([ik-goals.md](ik-goals.md#goal-types); `ccd` and `ccd-jt`
 take the first four: position; orientation; position + one tool axis, 5 DOF, with the lecture's
 Jacobian columns `w x v` for the direction part; full pose), for any frame and several frames at
-once; every step is clamped into the joint limits; an attempt that stops improving (its error did
-not fall by 1 % within 10 iterations for pinv/dls, 0.1 % within 20-50 for the heuristics) or uses
-up `max_iterations` restarts from a uniform random configuration of the joints that move a goal,
-up to `restarts` times and within `time_limit`. Every other `dls` restart first ignores the
-limits (clamping creates false minima at the limits): a solution found that way is shifted by
-multiples of 2 pi into the ranges, or clamped and finished with the limits on; the generator is
-seeded by `IKOptions.seed`, so answers are reproducible. The whole loop, restarts included, is
-compiled with numba. `success` is decided afterwards from forward kinematics and the limits
-(`armctl.ik.result.finish`); a failed solve returns the closest configuration found with status
-`unreachable` (every attempt ended at a minimum of the error), `max_iterations`, `time_limit`,
-`singular` (it ended at a singular configuration of the goals) or `failed` (non-finite numbers);
-see [ik-goals.md](ik-goals.md#ik-statuses).
+once; every step is clamped into the joint limits (`dls`: see below); an attempt that stops
+improving (its error did not fall by 1 % within 10 iterations for pinv/dls, 0.1 % within 20-50
+for the heuristics) or uses up `max_iterations` restarts from a uniform random configuration of
+the joints that move a goal, up to `restarts` times and within `time_limit`. Every `dls` attempt
+(without null-space criteria) first ignores the limits (clamping creates false minima at the
+limits): a solution found that way is shifted by multiples of 2 pi into the ranges, or clamped
+and finished with the limits on; the generator is seeded by `IKOptions.seed`, so answers are
+reproducible. The whole loop, restarts included, is compiled with numba. `success` is decided
+afterwards from forward kinematics and the limits (`armctl.ik.result.finish`); a failed solve
+returns the closest configuration found with status `unreachable` (every attempt ended at a
+minimum of the error), `max_iterations`, `time_limit`, `singular` (it ended at a singular
+configuration of the goals) or `failed` (non-finite numbers); see
+[ik-goals.md](ik-goals.md#ik-statuses).
 
 Null-space criteria (the lecture's redundancy step) are available on `pinv` and `dls` through
 `IKOptions(nullspace=NullSpace(...))`: comfortable posture, joint-limit avoidance, keep-out spheres
@@ -568,7 +582,9 @@ of `|dq_j|` in the total.
 
 ### Cost of one iteration [us]
 
-Median over 20 pose goals of 300 iterations each (a CCD iteration is a sweep over all joints).
+Median over 20 pose goals of the time of a run of up to 300 iterations minus that of a
+1-iteration run, per extra iteration (the fixed cost of a call cancels; a CCD iteration is a
+sweep over all joints).
 
 {costs}
 

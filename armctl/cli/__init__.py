@@ -63,27 +63,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: Commands that run compiled (numba) kernels, which are built on their first use.
-_COMPILING = frozenset({"fk", "ik", "move-to-pose", "move-joints", "home", "park", "teach",
-                        "play", "render", "workspace", "view", "info", "calibrate"})
+def _report_compiles() -> None:
+    """Report kernel compiles longer than a second on stderr, with progress.
 
-
-def _first_run_notice(command: str | None) -> None:
-    """Say so when the compiled kernels are not cached yet (the first run takes ~30 s)."""
-    if command not in _COMPILING:
-        return
+    The first run after installing compiles the kernels that a command needs; later runs load
+    them from numba's cache. Nothing is imported here: the report starts when numba is.
+    """
     try:
-        from pathlib import Path
+        from armctl.kinematics.compile_progress import report_compiles_once_loaded
 
-        from armctl.kinematics import _kernels
-
-        cache = Path(_kernels.chain_fk._cache._cache_path)  # type: ignore[attr-defined]
-        if any(cache.glob("_kernels.chain_fk-*.nbi")):
-            return
-    except Exception:  # the notice is a courtesy: numba internals may differ between versions
-        return
-    print("armctl: first run: compiling the numerical kernels (about half a minute, once)...",
-          file=sys.stderr, flush=True)
+        report_compiles_once_loaded(delay=1.0, every=10.0)
+    except Exception:  # a courtesy only: numba's event interface may differ between versions
+        logging.getLogger(__name__).debug("no compile progress", exc_info=True)
 
 
 class _StderrLogHandler(logging.Handler):
@@ -104,6 +95,11 @@ def _setup_logging() -> None:
     log = logging.getLogger("armctl")
     if not any(isinstance(h, _StderrLogHandler) for h in log.handlers):
         log.addHandler(_StderrLogHandler(logging.WARNING))
+    progress = logging.getLogger("armctl.kinematics.compile_progress")  # INFO: kernel compiles
+    if not any(isinstance(h, _StderrLogHandler) for h in progress.handlers):
+        progress.setLevel(logging.INFO)
+        progress.addHandler(_StderrLogHandler(logging.INFO))
+        progress.propagate = False
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -153,7 +149,7 @@ def _main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     _setup_logging()
-    _first_run_notice(args.command)
+    _report_compiles()
     if not getattr(args, "stop_signals", False):
         return _dispatch(args, None)
     from armctl.robot.stop import SignalGuard, signal_name

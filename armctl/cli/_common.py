@@ -9,11 +9,11 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
-import numpy as np
-
 from armctl.errors import ArmctlError, InputError, json_safe
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from armctl.arm import Arm
 
 __all__ = [
@@ -198,6 +198,8 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
             beyond a full turn (2 pi) without ``--deg`` that the joint cannot take (it can only
             be degrees), or a prismatic value that can only be millimetres.
     """
+    import numpy as np
+
     from armctl.config.schema import JointType
 
     if len(values) != arm.dof:

@@ -75,6 +75,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--reference", default="zero",
                    help="reference pose: 'zero' or the name of a pose in the config")
     p.add_argument("-o", "--output", help="calibration file (default: beside the config)")
+    lerobot = p.add_mutually_exclusive_group()
+    lerobot.add_argument("--from-lerobot", metavar="FILE.json",
+                         help="import a LeRobot calibration file instead of measuring (no bus "
+                              "needed); writes the armctl calibration file")
+    lerobot.add_argument("--to-lerobot", metavar="FILE.json",
+                         help="export the arm's calibration file as a LeRobot calibration file "
+                              "(no bus needed)")
+    p.add_argument("--calibration", metavar="FILE",
+                   help="with --to-lerobot: the armctl calibration to export (default: the "
+                        "one beside the config)")
+    p.add_argument("--force", action="store_true",
+                   help="with --from-lerobot or --to-lerobot: overwrite an existing output file")
     add_json(p)
     p.set_defaults(func=cmd_calibrate)
 
@@ -224,13 +236,16 @@ def _status_rows(ab: ArmBus, st: JointState, deg: bool) -> tuple[list[list[str]]
         q = float(st.position[i])
         shown = fmt(math.degrees(q), 2) if deg and _is_rotary(ab, name) else fmt(q, 4)
         errs = ",".join(a.value for a in st.errors[i]) or "-"
+        amps = float(st.current[i])  # NaN: the servo's feedback holds no current
         rows.append([name, str(j.servo_id), shown, str(int(st.ticks[i])),
                      fmt(float(st.temperature[i]), 0), fmt(float(st.voltage[i]), 1),
-                     fmt(100 * float(st.load[i]), 1), errs])
+                     fmt(100 * float(st.load[i]), 1), "-" if math.isnan(amps) else fmt(amps, 3),
+                     errs])
         data.append({"joint": name, "id": j.servo_id, "position": q, "ticks": int(st.ticks[i]),
                      "velocity": float(st.velocity[i]),
                      "temperature": float(st.temperature[i]), "voltage": float(st.voltage[i]),
-                     "load": float(st.load[i]), "errors": [a.value for a in st.errors[i]]})
+                     "load": float(st.load[i]), "current": None if math.isnan(amps) else amps,
+                     "errors": [a.value for a in st.errors[i]]})
     return rows, data
 
 
@@ -265,8 +280,8 @@ def cmd_status(args: argparse.Namespace) -> int:
 
     ab = _arm_bus(args)
     unit = "deg" if args.deg else "rad|m"
-    headers = ["joint", "id", f"angle [{unit}]", "ticks", "temp [C]", "volt [V]", "load [%]",
-               "errors"]
+    headers = ["joint", "id", f"angle [{unit}]", "ticks", "temp [C]", "volt [V]",
+               "load [% stall]", "current [A]", "errors"]
     limit_headers = ["joint", "id", f"config [{unit}]", "calibration", "servo registers",
                      "effective", "bounded by (lower / upper)"]
     with ab:
@@ -277,7 +292,7 @@ def cmd_status(args: argparse.Namespace) -> int:
         while True:
             st = ab.read_state()
             rows, data = _status_rows(ab, st, args.deg)
-            text = table(headers, rows, [1, 2, 3, 4, 5, 6]) + "\n\n" + limits
+            text = table(headers, rows, [1, 2, 3, 4, 5, 6, 7]) + "\n\n" + limits
             if args.once or args.json:
                 emit(args, {"arm": ab.arm_name, "port": ab.spec.port, "joints": data,
                             "calibration": ab.calibration.hash if ab.calibration else None,
@@ -353,6 +368,21 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     args.no_calibration = True
     spec = _spec(args)
+    if (args.from_lerobot or args.to_lerobot) and args.reference != "zero":
+        raise InputError("--reference is for measuring; a LeRobot calibration has its own zero "
+                         "(the middle of each joint's range)")
+    if args.from_lerobot:
+        if args.calibration:
+            raise InputError("--calibration goes with --to-lerobot; with --from-lerobot name "
+                             "the file to write with -o")
+        return _calibrate_from_lerobot(args, spec)
+    if args.to_lerobot:
+        if args.output:
+            raise InputError("-o names the armctl calibration to write; with --to-lerobot the "
+                             "output is FILE.json, and --calibration names the file to read")
+        return _calibrate_to_lerobot(args, spec)
+    if args.calibration or args.force:
+        raise InputError("--calibration and --force go with --from-lerobot or --to-lerobot")
     if args.reference == "zero":
         reference: dict[str, float] = {}
     elif args.reference in spec.poses:
@@ -367,11 +397,64 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         run_wizard(cal, args.reference)
         result = cal.finish()
     path = result.save(out)
+    _print_calibration(args, result, path)
+    return 0
+
+
+def _print_calibration(args: argparse.Namespace, result: Any, path: Any) -> None:
+    """Print a calibration's table and the file written."""
     rows = [[n, str(j.servo_id), fmt(j.zero_tick, 0), fmt(j.min_tick, 0), fmt(j.max_tick, 0),
              str(j.homing_offset), "yes" if j.wrap_detected else "no"]
             for n, j in result.joints.items()]
     text = table(["joint", "id", "zero", "min", "max", "offset", "wrap seen"], rows,
                  [1, 2, 3, 4, 5]) + f"\n\nwrote {path} (hash {result.hash})"
     emit(args, {"file": str(path), "hash": result.hash,
-                "joints": {n: vars(j) for n, j in result.joints.items()}}, text)
+                "joints": {n: j.record() for n, j in result.joints.items()}}, text)
+
+
+def _calibrate_from_lerobot(args: argparse.Namespace, spec: ArmSpec) -> int:
+    """``armctl calibrate CONFIG --from-lerobot FILE``: import, check, write."""
+    from pathlib import Path
+
+    from armctl.errors import ConfigError, KeyPath
+    from armctl.servo.calibration import calibration_path
+    from armctl.servo.lerobot_calibration import import_lerobot
+
+    out = Path(args.output) if args.output else calibration_path(spec)
+    if out.exists() and not args.force:
+        raise ConfigError("the calibration file exists already; nothing was written",
+                          KeyPath(out), "pass --force to replace it, or -o FILE to write "
+                          "another file")
+    result = import_lerobot(spec, args.from_lerobot)
+    path = result.save(out)
+    _print_calibration(args, result, path)
+    return 0
+
+
+def _calibrate_to_lerobot(args: argparse.Namespace, spec: ArmSpec) -> int:
+    """``armctl calibrate CONFIG --to-lerobot FILE``: read the calibration, write LeRobot's."""
+    from pathlib import Path
+
+    from armctl.errors import ConfigError, KeyPath
+    from armctl.servo.calibration import Calibration, calibration_path
+    from armctl.servo.lerobot_calibration import export_lerobot
+
+    source = Path(args.calibration) if args.calibration else calibration_path(spec)
+    if not source.exists():
+        raise ConfigError(f"arm {spec.name!r} has no calibration file", KeyPath(source),
+                          "run 'armctl calibrate CONFIG' (or import one with --from-lerobot), "
+                          "or name it with --calibration FILE")
+    done = export_lerobot(spec, Calibration.load(source), args.to_lerobot,
+                          overwrite=args.force)
+    rows = [[n, str(r.id), str(r.drive_mode), str(r.homing_offset), str(r.range_min),
+             str(r.range_max)] for n, r in done.records.items()]
+    text = table(["motor", "id", "drive_mode", "homing_offset", "range_min", "range_max"],
+                 rows, [1, 2, 3, 4, 5]) + f"\n\nwrote {done.file} (from {source})"
+    for s in done.shifts:
+        text += (f"\nnote: LeRobot puts joint {s.joint!r} at zero where armctl reads "
+                 f"{fmt(s.value, 4)}: LeRobot's zero is the middle of the range (the gripper's "
+                 "0 % is its lower end), armctl's is the reference pose")
+    emit(args, {"file": str(done.file), "calibration": str(source),
+                "motors": {n: r.as_dict() for n, r in done.records.items()},
+                "zero_shifts": {s.joint: s.value for s in done.shifts}}, text)
     return 0

@@ -21,6 +21,7 @@ from armctl.cli._common import (
     positive_int,
     table,
 )
+from armctl.cli._parser import add_later
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
@@ -73,6 +74,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("ik", help="inverse kinematics: joint values that reach a pose",
                        description=_DESCRIPTION, epilog=_EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.set_defaults(func=cmd_ik)
+    add_later(p, _ik_arguments)  # the goal types' flags need armctl.ik (NumPy): only for `ik`
+
+
+def _ik_arguments(p: argparse.ArgumentParser) -> None:
     add_config(p)
     add_goal_arguments(p)
     p.add_argument("--force-pose", action="store_true",
@@ -90,7 +96,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="with --all: also list the 2 pi variants of each solution (joint values "
                         "a full turn apart that fit in the limits)")
     add_json(p)
-    p.set_defaults(func=cmd_ik)
 
 
 def add_goal_arguments(p: argparse.ArgumentParser) -> None:
@@ -412,7 +417,8 @@ def _cmd_all(args: argparse.Namespace, arm: Arm, req: IKRequest) -> int:
     if len(req.goals) != 1 or req.constraints:
         raise InputError("--all takes exactly one goal and no constraints")
     goal = req.goals[0]
-    every = ik_all(arm, goal, q_ref=req.q0, tol=acceptance(goal))  # as the single answer
+    every = ik_all(arm, goal, q_ref=req.q0, tol=acceptance(goal),  # as the single answer
+                   variants=True)
     prismatic = [t is JointType.PRISMATIC for t in arm.joint_types]
     distinct = every.distinct([not p for p in prismatic])  # near-duplicates merged
     sols = every if args.variants else distinct

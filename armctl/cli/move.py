@@ -6,15 +6,14 @@ import argparse
 import math
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from armctl.cli._common import add_config, add_json, emit, finite, load_arm_arg, parse_angles
-from armctl.cli._motion_report import plan_data, plan_text, reached_joints, stream_text
-from armctl.cli._motion_run import nothing_to_do, one_tick, run_motion
+from armctl.cli._parser import add_later
 from armctl.cli._progress import Progress
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from armctl.arm import Arm
     from armctl.ik import IKResult
     from armctl.motion import MotionPlan
@@ -39,19 +38,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                        description="Solve IK for the goal, plan a synchronised move (or a "
                        "straight line with --linear), stream it, and report the reached pose "
                        "(FK of the joints read back). Unreachable goals move nothing (exit 3).")
-    add_config(p)
-    from armctl.cli.ik import add_goal_arguments
-
-    add_goal_arguments(p)  # --xyz, --rpy/--quat/--direction, --frame, --tol-pos, --tol-rot
-    p.add_argument("--deg", action="store_true", help="--rpy in degrees")
-    p.add_argument("--linear", action="store_true", help="move the tool along a straight line")
-    p.add_argument("--solver", default="auto", help="IK solver (default auto)")
-    p.add_argument("--force-pose", action="store_true",
-                   help="move to a full pose (--rpy/--quat) even when fewer than 6 joints move "
-                        "the frame (such a pose is reachable only on a 5-DOF subset)")
-    _add_move_options(p)
-    add_json(p)
     p.set_defaults(func=cmd_move_to_pose)
+    add_later(p, _move_to_pose_arguments)  # the goal flags need armctl.ik: only when used
 
     p = sub.add_parser("move-joints", help="move every joint to the given values together")
     add_config(p)
@@ -69,9 +57,28 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         p.set_defaults(func=cmd_named, pose=name)
 
 
+def _move_to_pose_arguments(p: argparse.ArgumentParser) -> None:
+    from armctl.cli.ik import add_goal_arguments
+
+    add_config(p)
+    add_goal_arguments(p)  # --xyz, --rpy/--quat/--direction, --frame, --tol-pos, --tol-rot
+    p.add_argument("--deg", action="store_true", help="--rpy in degrees")
+    p.add_argument("--linear", action="store_true", help="move the tool along a straight line")
+    p.add_argument("--solver", default="auto", help="IK solver (default auto)")
+    p.add_argument("--force-pose", action="store_true",
+                   help="move to a full pose (--rpy/--quat) even when fewer than 6 joints move "
+                        "the frame (such a pose is reachable only on a 5-DOF subset)")
+    _add_move_options(p)
+    add_json(p)
+
+
 def cmd_move_to_pose(args: argparse.Namespace) -> int:
     """``armctl move-to-pose``."""
+    import numpy as np
+
     from armctl.cli import _checks
+    from armctl.cli._motion_report import plan_data, plan_text, stream_text
+    from armctl.cli._motion_run import nothing_to_do, run_motion
     from armctl.cli.ik import build_goals, check_pose_dof
 
     if args.xyz is None:
@@ -184,6 +191,9 @@ def _check_values(arm: Arm, q: np.ndarray, deg: bool) -> None:
 
 def _joint_command(args: argparse.Namespace, arm: Arm, target: Any, what: str, idle: str
                    ) -> int:
+    from armctl.cli._motion_report import plan_data, plan_text, reached_joints, stream_text
+    from armctl.cli._motion_run import nothing_to_do, one_tick, run_motion
+
     still: list[bool] = []
 
     def go(robot: Robot, progress: Progress) -> MoveReport:

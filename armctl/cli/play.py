@@ -15,9 +15,6 @@ from armctl.cli._common import (
     load_arm_arg,
     positive_int,
 )
-from armctl.cli._motion_report import plan_data, plan_text, stream_text
-from armctl.cli._motion_run import nothing_to_do, run_motion
-from armctl.cli._preview import write_preview
 from armctl.cli._progress import Progress
 from armctl.errors import InputError
 
@@ -63,6 +60,9 @@ def cmd_play(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from armctl.cli import _checks
+    from armctl.cli._motion_report import plan_data, plan_text, stream_text
+    from armctl.cli._motion_run import nothing_to_do, run_motion
+    from armctl.cli._preview import write_preview
     from armctl.motion import Interpolation, PlaybackOptions, load_keyframes
     from armctl.motion.playback import check_playback_speed
 

@@ -8,8 +8,6 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from armctl.cli._common import (
     add_config,
     add_json,
@@ -27,6 +25,8 @@ from armctl.cli._common import (
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from armctl.arm import Arm
     from armctl.render.draw import Camera, View
     from armctl.render.picture import Target
@@ -147,6 +147,8 @@ def _target(args: argparse.Namespace) -> Target | None:
     check_rpy(args.target_rpy, args.deg, "--target-rpy")
     rpy = None
     if args.target_rpy is not None:
+        import numpy as np
+
         rpy = np.radians(args.target_rpy) if args.deg else np.asarray(args.target_rpy)
     return Target.from_xyz_rpy(args.target_xyz, rpy)
 

@@ -6,8 +6,6 @@ import argparse
 import sys
 
 from armctl.cli._common import add_config, add_json, emit, load_arm_arg
-from armctl.cli._motion_run import open_robot
-from armctl.cli._teach_loop import TEACH_HELP, teach_loop
 
 ORDER = 41
 
@@ -39,6 +37,8 @@ def cmd_teach(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from armctl.cli import _checks
+    from armctl.cli._motion_run import open_robot
+    from armctl.cli._teach_loop import TEACH_HELP, teach_loop
     from armctl.motion import AngleUnit
     from armctl.robot.teach import ExistingFile, TeachSession
 

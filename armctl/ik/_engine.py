@@ -13,20 +13,22 @@ a plain tuple in a fraction of a microsecond; a named tuple or a class would cos
   :func:`armctl.ik._pack.model_arrays` (``ModelArrays.kernel``).
 * ``goals`` = ``(gf, gt, gd, gw, gtol, mask)``: the packed goals (layout in
   :mod:`armctl.ik._residual`), ``GoalArrays.kernel`` of :func:`armctl.ik._pack.pack_goals`.
-* ``run`` = ``(method, prm, max_iter, attempts, time_limit)``: the method (:data:`PINV`,
+* ``run`` = ``(method, prm, max_iter, attempts, deadline)``: the method (:data:`PINV`,
   :data:`DLS`, :data:`JT`, :data:`CCD` or :data:`CCD_JT`), its parameter vector (``P_*``
   indices), the iterations per attempt, the largest number of attempts (1 + restarts) and the
-  wall time [s] after which no new attempt starts and a running one stops (checked every 256
-  iterations; <= 0 for none).
+  ``time.perf_counter()`` value [s] after which no new attempt starts and a running one stops
+  (checked every 256 iterations; <= 0 for none). The caller computes the deadline, so a solve
+  that converges in its first attempt never reads the clock (a read from compiled code costs
+  about a microsecond). :func:`solve_batch` takes a time limit [s] per problem instead.
 * ``nullspace`` = ``(nsw, pref, spheres)``: the null-space weights ``(4,)`` (all zero: no
   null-space term; only PINV and DLS use them), the preferred posture ``(n,)`` and the keep-out
   spheres ``(S, 5)`` (frame index, centre [m], radius [m]), from
   :func:`armctl.ik.nullspace.ns_arrays`.
 
-Every returned ``q`` lies inside the limits: attempts clamp ``q`` after each step, except the
-DLS restarts that first ignore the limits, whose result is wrapped by 2 pi or clamped into them
-before it is used. Random restarts draw uniformly inside the limits from a splitmix64 generator
-whose state is passed in, so a seed fixes the answer.
+Every returned ``q`` lies inside the limits: attempts clamp ``q`` after each step, except DLS
+attempts (without null-space criteria), which first ignore the limits and whose result is
+wrapped by 2 pi or clamped into them before it is used. Random restarts draw uniformly inside
+the limits from a splitmix64 generator whose state is passed in, so a seed fixes the answer.
 """
 
 from __future__ import annotations
@@ -81,7 +83,8 @@ __all__ = [
 ArmGroup = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 #: ``(gf, gt, gd, gw, gtol, mask)``.
 GoalGroup = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-#: ``(method, prm, max_iter, attempts, time_limit)``.
+#: ``(method, prm, max_iter, attempts, deadline)`` (:func:`solve`) or
+#: ``(method, prm, max_iter, attempts, time_limit)`` (:func:`solve_batch`).
 RunGroup = tuple[int, np.ndarray, int, int, float]
 #: ``(nsw, pref, spheres)``.
 NullSpaceGroup = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -154,7 +157,8 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
         q0: Start ``(n,)`` (clamped into the limits).
         arm: ``(lower, upper, jd, parent, fd, paths)`` (see the module docstring).
         goals: ``(gf, gt, gd, gw, gtol, mask)``.
-        run: ``(method, prm, max_iter, attempts, time_limit)``.
+        run: ``(method, prm, max_iter, attempts, deadline)``; ``deadline`` is a
+            ``time.perf_counter()`` value [s] (<= 0: none).
         nullspace: ``(nsw, pref, spheres)``.
         state: RNG state (advanced).
         q_out: Receives the converged ``q``, or the one with the lowest error found.
@@ -166,9 +170,8 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
     """
     lower, upper, jd, parent, fd, paths = arm
     gf, gt, gd, gw, gtol, mask = goals
-    method, prm, max_iter, attempts, time_limit = run
+    method, prm, max_iter, attempts, deadline = run
     nsw, pref, spheres = nullspace
-    deadline = _now() + time_limit if time_limit > 0.0 else 0.0
     n = q0.shape[0]
     ng = gf.shape[0]
     m = n_rows(gt)
@@ -228,10 +231,11 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
             _random_q(lower, upper, state, mask, q)
         en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, True)
         mu = 1.0
-        # every other DLS restart first ignores the limits (clamping creates false minima at
-        # the limits); a solution found that way is wrapped by 2 pi into the ranges, or else
-        # clamped and finished with the limits on
-        free = method == DLS and att % 2 == 1 and not use_ns
+        # every DLS attempt first ignores the limits (clamping creates false minima at the
+        # limits: from random starts, most clamped attempts that fail end at a limit); a
+        # solution found that way is wrapped by 2 pi into the ranges, or else clamped and
+        # finished with the limits on
+        free = method == DLS and not use_ns
         e_window = en
         ns_count = 0
         ns_best = np.inf
@@ -381,11 +385,14 @@ def solve_batch(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
     attempts, stalled).
     """
     gf, gt, gd, gw, gtol, mask = goals
+    method, prm, max_iter, attempts, time_limit = run
     trace = np.empty((0, 2))
     state = np.empty(1, dtype=np.uint64)
     for b in range(q0.shape[0]):
         state[0] = seeds[b]
-        st, it, att, stl = solve(q0[b], arm, (gf, gt, gd[b], gw, gtol, mask), run, nullspace,
+        deadline = _now() + time_limit if time_limit > 0.0 else 0.0
+        st, it, att, stl = solve(q0[b], arm, (gf, gt, gd[b], gw, gtol, mask),
+                                 (method, prm, max_iter, attempts, deadline), nullspace,
                                  state, q_out[b], trace)
         info[b, 0] = st
         info[b, 1] = it

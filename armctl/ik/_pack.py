@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import os
+import random
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -15,7 +17,8 @@ from armctl.ik.goals import Goal
 from armctl.kinematics.model import KinematicModel
 from armctl.typing import Array
 
-__all__ = ["GoalArrays", "ModelArrays", "goal_row", "model_arrays", "pack_goals", "seed_state"]
+__all__ = ["GoalArrays", "ModelArrays", "goal_kernel", "goal_row", "model_arrays", "pack_goals",
+           "seed_state"]
 
 
 @dataclass(frozen=True)
@@ -28,12 +31,14 @@ class ModelArrays:
         continuous: Joints without position limits (wrapped into [-pi, pi] in answers).
         kernel: The ``arm`` argument of :func:`armctl.ik._engine.solve`: the limits and the
             model's compiled tree (``joints``, ``parent``, ``frames``, ``paths``).
+        wraps: Whether any joint is continuous.
     """
 
     lower: Array
     upper: Array
     continuous: npt.NDArray[np.bool_]
     kernel: E.ArmGroup
+    wraps: bool
 
 
 _MODELS: weakref.WeakKeyDictionary[KinematicModel, ModelArrays] = weakref.WeakKeyDictionary()
@@ -46,8 +51,10 @@ def model_arrays(model: KinematicModel) -> ModelArrays:
         lower = np.array(model.lower, dtype=float)
         upper = np.array(model.upper, dtype=float)
         tree = model.tree
-        got = ModelArrays(lower, upper, ~(np.isfinite(lower) & np.isfinite(upper)),
-                          (lower, upper, tree.joints, tree.parent, tree.frames, tree.paths))
+        continuous = ~(np.isfinite(lower) & np.isfinite(upper))
+        got = ModelArrays(lower, upper, continuous,
+                          (lower, upper, tree.joints, tree.parent, tree.frames, tree.paths),
+                          bool(continuous.any()))
         _MODELS[model] = got
     return got
 
@@ -79,37 +86,73 @@ def goal_type(goal: Goal) -> int:
     return int(goal.kind)
 
 
-_MASKS: weakref.WeakKeyDictionary[KinematicModel, dict[int, npt.NDArray[np.int64]]] = (
+#: One goal set's structure: per goal its frame name, kind, weight and tolerances.
+_Key = tuple[tuple[str | None, int, float, float, float], ...]
+#: Arrays: ``(gf, gt, gw, gtol, mask)``.
+_Structure = tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], Array, Array,
+                   npt.NDArray[np.int64]]
+#: per model: the packed structure of the goal sets solved recently
+_STRUCTURES: weakref.WeakKeyDictionary[KinematicModel, dict[_Key, _Structure]] = (
     weakref.WeakKeyDictionary())
+_MAX_STRUCTURES = 256  # per model; the cache starts afresh when full
 
 
-def _mask_row(model: KinematicModel, f: int) -> npt.NDArray[np.int64]:
-    rows = _MASKS.setdefault(model, {})
-    row = rows.get(f)
-    if row is None:
-        row = np.zeros(model.dof, dtype=np.int64)
-        row[model.tree.chain(f)] = 1
-        rows[f] = row
-    return row
+def _structure(model: KinematicModel, goals: Sequence[Goal]) -> _Structure:
+    """The arrays of the goals that do not depend on their targets (cached per model).
+
+    The arrays are shared between calls: the kernels only read them.
+    """
+    key = tuple([(g.frame, g.kind, g.weight, g.tolerance.position, g.tolerance.rotation)
+                 for g in goals])
+    cache = _STRUCTURES.get(model)
+    if cache is None:
+        cache = _STRUCTURES[model] = {}
+    got = cache.get(key)
+    if got is None:
+        frames = [model.frame_index(goal.frame) for goal in goals]  # unknown frames raise
+        mask = np.zeros((len(goals), model.dof), dtype=np.int64)
+        for i, f in enumerate(frames):
+            mask[i, model.tree.chain(f)] = 1
+        got = (np.array(frames, dtype=np.int64),
+               np.array([goal_type(goal) for goal in goals], dtype=np.int64),
+               np.array([goal.weight for goal in goals], dtype=float),
+               np.array([(g.tolerance.position, g.tolerance.rotation) for g in goals],
+                        dtype=float),
+               mask)
+        if len(cache) >= _MAX_STRUCTURES:
+            cache.clear()
+        cache[key] = got
+    return got
+
+
+def goal_kernel(model: KinematicModel, goals: Sequence[Goal]) -> E.GoalGroup:
+    """The ``goals`` argument of :func:`armctl.ik._engine.solve`.
+
+    What :func:`pack_goals` holds, without the record around it (one object less per call);
+    raises InputError for an unknown frame.
+    """
+    gf, gt, gw, gtol, mask = _structure(model, goals)
+    gd = np.array(goals[0].packed(), dtype=float, ndmin=2) if len(goals) == 1 else np.array(
+        [goal_row(goal) for goal in goals], dtype=float)
+    return gf, gt, gd, gw, gtol, mask
 
 
 def pack_goals(model: KinematicModel, goals: Sequence[Goal]) -> GoalArrays:
-    """Pack goals; raises InputError for an unknown frame or goal type."""
-    frames = [model.frame_index(goal.frame) for goal in goals]
-    return GoalArrays(
-        np.array(frames, dtype=np.int64),
-        np.array([goal_type(goal) for goal in goals], dtype=np.int64),
-        np.array([goal_row(goal) for goal in goals]),
-        np.array([goal.weight for goal in goals], dtype=float),
-        np.array([(g.tolerance.position, g.tolerance.rotation) for g in goals], dtype=float),
-        np.array([_mask_row(model, f) for f in frames]),
-    )
+    """Pack goals; raises InputError for an unknown frame."""
+    return GoalArrays(*goal_kernel(model, goals))
+
+
+#: Fresh seeds for ``seed=None`` (seeded from the operating system; again in a forked child,
+#: so that worker processes do not share their restarts).
+_ENTROPY = random.Random()
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_ENTROPY.seed)
 
 
 def seed_state(seed: int | None) -> npt.NDArray[np.uint64]:
     """The engine's RNG state for a seed (``None``: fresh entropy)."""
     if seed is None:
-        value = int(np.random.SeedSequence().entropy) & (2**64 - 1)  # type: ignore[arg-type]
+        value = _ENTROPY.getrandbits(64)
     else:
         value = (int(seed) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & (2**64 - 1)
     return np.array([value], dtype=np.uint64)
@@ -117,7 +160,7 @@ def seed_state(seed: int | None) -> npt.NDArray[np.uint64]:
 
 def wrap_continuous(q: Array, continuous: npt.NDArray[np.bool_]) -> Array:
     """``q`` with the joints that have no limits wrapped into [-pi, pi)."""
-    if continuous.any():
+    if continuous.any():  # callers that know the arm has none skip the call
         q = q.copy()
         q[continuous] = (q[continuous] + math.pi) % (2.0 * math.pi) - math.pi
     return q

@@ -85,48 +85,121 @@ class Tolerance:
                              f"rotation={self.rotation} rad")
 
 
+# Goals are built and checked once per IK call, so the checks below work on plain Python floats
+# (``tolist``): for 3 to 16 numbers that is several times faster than NumPy's per-call overhead.
+
+#: Largest |R R^T - I| entry of a rotation accepted as a rotation matrix (else an error).
+_ROTATION_TOLERANCE = 1e-6
+#: Largest |R R^T - I| entry of a rotation taken as it is; one between this and
+#: :data:`_ROTATION_TOLERANCE` is replaced by the nearest rotation matrix.
+_ORTHONORMAL = 1e-12
+
+
+def _finite(values: list[float]) -> bool:
+    """Whether every number is finite (one sum; each number only when the sum is not finite)."""
+    return math.isfinite(sum(values)) or all(math.isfinite(v) for v in values)
+
+
+def _vec3(value: npt.ArrayLike, what: str) -> Array:
+    """A new ``(3,)`` float vector of finite numbers; ``what`` names it in the error."""
+    arr = np.array(value, dtype=float).reshape(-1)
+    if arr.shape != (3,) or not _finite(arr.tolist()):
+        raise InputError(f"{what} must be 3 finite numbers, got {np.asarray(value).tolist()}")
+    return arr
+
+
 def as_vec3(value: npt.ArrayLike, what: str) -> Array:
     """A read-only ``(3,)`` float vector; ``what`` names it in the error."""
-    arr = np.array(value, dtype=float).reshape(-1)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise InputError(f"{what} must be 3 finite numbers, got {np.asarray(value).tolist()}")
+    arr = _vec3(value, what)
     arr.setflags(write=False)
     return arr
 
 
 def as_unit3(value: npt.ArrayLike, what: str) -> Array:
     """A read-only unit ``(3,)`` vector (normalised); ``what`` names it in the error."""
-    arr = np.array(as_vec3(value, what))
-    n = float(np.linalg.norm(arr))
+    x, y, z = _vec3(value, what).tolist()
+    n = math.hypot(x, y, z)
     if n < 1e-9:
         raise InputError(f"{what} must not be the zero vector")
-    arr /= n
+    arr = np.array([x / n, y / n, z / n])
     arr.setflags(write=False)
     return arr
 
 
+def _rotation_residual(rows: Sequence[Sequence[float]]) -> tuple[float, float]:
+    """``max |R R^T - I|`` and ``det R`` of the 3x3 block at the top left of ``rows``."""
+    (x0, x1, x2), (y0, y1, y2), (z0, z1, z2) = rows[0][:3], rows[1][:3], rows[2][:3]
+    off = max(abs(x0 * x0 + x1 * x1 + x2 * x2 - 1.0), abs(y0 * y0 + y1 * y1 + y2 * y2 - 1.0),
+              abs(z0 * z0 + z1 * z1 + z2 * z2 - 1.0), abs(x0 * y0 + x1 * y1 + x2 * y2),
+              abs(x0 * z0 + x1 * z1 + x2 * z2), abs(y0 * z0 + y1 * z1 + y2 * z2))
+    det = x0 * (y1 * z2 - y2 * z1) - x1 * (y0 * z2 - y2 * z0) + x2 * (y0 * z1 - y1 * z0)
+    return off, det
+
+
+def _check_rotation(rows: Sequence[Sequence[float]], what: str) -> bool:
+    """Raise unless the top-left 3x3 of ``rows`` is a rotation; say if it needs orthonormalising.
+
+    A rotation passes within :data:`_ROTATION_TOLERANCE`. The test is the cheap residual
+    ``max |R R^T - I|`` and the sign of the determinant; the projection onto the nearest
+    rotation (an SVD) runs only for a matrix that is not orthonormal to round-off already.
+    """
+    off, det = _rotation_residual(rows)
+    if not off <= _ROTATION_TOLERANCE or det < 0:
+        raise InputError(f"{what} is not a rotation matrix (R R^T != I or det < 0): largest "
+                         f"|R R^T - I| entry {off:.3g} (at most {_ROTATION_TOLERANCE:g}), "
+                         f"det {det:.6g}; give an orthonormal matrix with det +1")
+    return off > _ORTHONORMAL
+
+
 def _rotation(value: npt.ArrayLike, what: str) -> Array:
     arr = np.array(value, dtype=float)
-    if arr.shape != (3, 3) or not np.all(np.isfinite(arr)):
-        raise InputError(f"{what} must be a 3x3 rotation matrix")
-    if np.abs(arr @ arr.T - np.eye(3)).max() > 1e-6 or np.linalg.det(arr) < 0:
-        raise InputError(f"{what} is not a rotation matrix (R R^T != I or det < 0)")
-    out = orthonormalize(arr)
+    if arr.shape != (3, 3) or not _finite(arr.ravel().tolist()):
+        raise InputError(f"{what} must be a 3x3 rotation matrix of finite numbers")
+    out = orthonormalize(arr) if _check_rotation(arr.tolist(), what) else arr
     out.setflags(write=False)
     return out
 
 
+def _angle_lists(a: Sequence[float], b: Sequence[float]) -> float:
+    """Angle between two 3-vectors [rad] (unit length for accuracy), accurate at 0 and pi."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return math.atan2(math.hypot(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0),
+                      a0 * b0 + a1 * b1 + a2 * b2)
+
+
 def _angle(a: Array, b: Array) -> float:
     """Angle between two unit vectors [rad], accurate at 0 and pi."""
-    return float(math.atan2(np.linalg.norm(np.cross(a, b)), float(a @ b)))
+    return _angle_lists(a.tolist(), b.tolist())
+
+
+def _rotation_angle_lists(t: Sequence[Sequence[float]], c: Sequence[Sequence[float]]) -> float:
+    """:func:`_rotation_angle` of the top-left 3x3 blocks of two row lists."""
+    (t0, t1, t2), (t3, t4, t5), (t6, t7, t8) = t[0][:3], t[1][:3], t[2][:3]
+    (c0, c1, c2), (c3, c4, c5), (c6, c7, c8) = c[0][:3], c[1][:3], c[2][:3]
+    # d = R_t R_c^T: its skew part and its trace
+    d01 = t0 * c3 + t1 * c4 + t2 * c5
+    d02 = t0 * c6 + t1 * c7 + t2 * c8
+    d10 = t3 * c0 + t4 * c1 + t5 * c2
+    d12 = t3 * c6 + t4 * c7 + t5 * c8
+    d20 = t6 * c0 + t7 * c1 + t8 * c2
+    d21 = t6 * c3 + t7 * c4 + t8 * c5
+    tr = (t0 * c0 + t1 * c1 + t2 * c2) + (t3 * c3 + t4 * c4 + t5 * c5) + (
+        t6 * c6 + t7 * c7 + t8 * c8)
+    return math.atan2(math.hypot(d21 - d12, d02 - d20, d10 - d01) / 2.0, (tr - 1.0) / 2.0)
 
 
 def _rotation_angle(r_target: Array, r_current: Array) -> float:
     """Angle of the rotation between two orientations [rad], accurate near 0."""
-    d = r_target @ r_current.T
-    s = np.array([d[2, 1] - d[1, 2], d[0, 2] - d[2, 0], d[1, 0] - d[0, 1]])
-    c = (d[0, 0] + d[1, 1] + d[2, 2] - 1.0) / 2.0
-    return float(math.atan2(np.linalg.norm(s) / 2.0, c))
+    return _rotation_angle_lists(r_target.tolist(), np.asarray(r_current).tolist())
+
+
+def _rotate(rows: Sequence[Sequence[float]], v: Sequence[float]) -> tuple[float, float, float]:
+    """The top-left 3x3 of ``rows`` times the 3-vector ``v``."""
+    v0, v1, v2 = v
+    return (rows[0][0] * v0 + rows[0][1] * v1 + rows[0][2] * v2,
+            rows[1][0] * v0 + rows[1][1] * v1 + rows[1][2] * v2,
+            rows[2][0] * v0 + rows[2][1] * v1 + rows[2][2] * v2)
 
 
 class GoalKind(IntEnum):
@@ -449,8 +522,9 @@ class PositionGoal(Goal):
         object.__setattr__(self, "has_position", True)
 
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
-        p = np.asarray(pose)[:3, 3]
-        return float(np.linalg.norm(self.position - p)), 0.0
+        m = np.asarray(pose).tolist()
+        x, y, z = self.position.tolist()
+        return math.hypot(x - m[0][3], y - m[1][3], z - m[2][3]), 0.0
 
     @property
     def target_position(self) -> Array:  # noqa: D102
@@ -528,7 +602,7 @@ class OrientationGoal(Goal):
         return cls(rot, frame=frame, weight=weight, tolerance=tolerance)
 
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
-        return 0.0, _rotation_angle(self.rotation, np.asarray(pose)[:3, :3])
+        return 0.0, _rotation_angle_lists(self.rotation.tolist(), np.asarray(pose).tolist())
 
     def packed(self) -> Array:  # noqa: D102
         return _packed(rotation=self.rotation)
@@ -591,9 +665,10 @@ class DirectionGoal(Goal):
         object.__setattr__(self, "has_rotation", True)
 
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
-        m = np.asarray(pose)
-        return (float(np.linalg.norm(self.position - m[:3, 3])),
-                _angle(m[:3, :3] @ self.axis, self.direction))
+        m = np.asarray(pose).tolist()
+        x, y, z = self.position.tolist()
+        return (math.hypot(x - m[0][3], y - m[1][3], z - m[2][3]),
+                _angle_lists(_rotate(m, self.axis.tolist()), self.direction.tolist()))
 
     @property
     def target_position(self) -> Array:  # noqa: D102
@@ -664,13 +739,17 @@ class PoseGoal(Goal):
     def __post_init__(self) -> None:
         super().__post_init__()
         arr = np.array(self.pose, dtype=float)
-        if arr.shape != (4, 4) or not np.all(np.isfinite(arr)):
+        if arr.shape != (4, 4):
             raise InputError(f"a pose goal needs a 4x4 transform, got shape {arr.shape}")
-        out = np.eye(4)
-        out[:3, :3] = _rotation(arr[:3, :3], "goal pose rotation")
-        out[:3, 3] = arr[:3, 3]
-        out.setflags(write=False)
-        object.__setattr__(self, "pose", out)
+        rows = arr.tolist()
+        if not _finite(rows[0] + rows[1] + rows[2]):
+            raise InputError(f"a pose goal needs a 4x4 transform of finite numbers, got {rows}")
+        if _check_rotation(rows, "goal pose rotation"):
+            arr[:3, :3] = orthonormalize(arr[:3, :3])
+        if rows[3] != [0.0, 0.0, 0.0, 1.0]:
+            arr[3] = (0.0, 0.0, 0.0, 1.0)  # the last row of a transform, whatever was given
+        arr.setflags(write=False)
+        object.__setattr__(self, "pose", arr)
         object.__setattr__(self, "dof", 6)
         object.__setattr__(self, "has_position", True)
         object.__setattr__(self, "has_rotation", True)
@@ -686,16 +765,19 @@ class PoseGoal(Goal):
         return self.pose[:3, :3]
 
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
-        m = np.asarray(pose)
-        return (float(np.linalg.norm(self.pose[:3, 3] - m[:3, 3])),
-                _rotation_angle(self.pose[:3, :3], m[:3, :3]))
+        m = np.asarray(pose).tolist()
+        t = self.pose.tolist()
+        return (math.hypot(t[0][3] - m[0][3], t[1][3] - m[1][3], t[2][3] - m[2][3]),
+                _rotation_angle_lists(t, m))
 
     @property
     def target_position(self) -> Array:  # noqa: D102
         return self.pose[:3, 3]
 
     def packed(self) -> Array:  # noqa: D102
-        return _packed(position=self.pose[:3, 3], rotation=self.pose[:3, :3])
+        r0, r1, r2, _ = self.pose.tolist()
+        return np.array([r0[3], r1[3], r2[3], r0[0], r0[1], r0[2], r1[0], r1[1], r1[2],
+                         r2[0], r2[1], r2[2], 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
 
     def nlp_params(self) -> Array:  # noqa: D102
         return np.concatenate([self.position, self.rotation.ravel(order="F")])
@@ -772,11 +854,12 @@ class LookAtGoal(Goal):
         object.__setattr__(self, "has_rotation", True)
 
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
-        m = np.asarray(pose)
-        d = self.point - m[:3, 3]
-        if float(np.linalg.norm(d)) < 1e-12:
+        m = np.asarray(pose).tolist()
+        x, y, z = self.point.tolist()
+        d = (x - m[0][3], y - m[1][3], z - m[2][3])
+        if math.hypot(*d) < 1e-12:
             return 0.0, math.pi
-        return 0.0, _angle(m[:3, :3] @ self.axis, d)
+        return 0.0, _angle_lists(_rotate(m, self.axis.tolist()), d)
 
     def packed(self) -> Array:  # noqa: D102
         return _packed(position=self.point, axis=self.axis)

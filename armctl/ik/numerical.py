@@ -27,9 +27,11 @@ step:
   correction over all joints.
 
 ``pinv`` and ``dls`` add null-space criteria (the lecture's redundancy step) when
-``options.nullspace`` is set. All of them clamp into the joint limits after every step, restart
-from uniform random configurations when an attempt stalls or uses up its iterations, and stop at
-the time limit.
+``options.nullspace`` is set. All of them clamp into the joint limits after every step, except
+``dls`` without null-space criteria, whose attempts first ignore the limits (clamping creates
+false minima at the limits) and bring a solution into them by whole turns, or else clamp it and
+go on with the limits on; all restart from uniform random configurations when an attempt stalls
+or uses up its iterations, and stop at the time limit.
 """
 
 from __future__ import annotations
@@ -41,11 +43,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 from armctl.errors import InputError
 from armctl.ik import _engine as E
-from armctl.ik._pack import model_arrays, pack_goals, seed_state, wrap_continuous
+from armctl.ik._pack import ModelArrays, goal_kernel, model_arrays, seed_state, wrap_continuous
 from armctl.ik.goals import Goal
 from armctl.ik.nullspace import ns_arrays
 from armctl.ik.options import IKOptions
@@ -99,12 +100,13 @@ _PRM_CACHE: weakref.WeakKeyDictionary[KinematicModel, dict[tuple[Any, ...], Arra
 def method_params(model: KinematicModel, method: int, options: IKOptions,
                   params: MethodParams | None = None) -> Array:
     """The engine's parameter vector for a method (cached per model, method and criteria)."""
-    p = params or _PARAMS[method]
-    cache = _PRM_CACHE.setdefault(model, {})
-    key = (method, p, options.nullspace)
+    cache = _PRM_CACHE.get(model)
+    if cache is None:
+        cache = _PRM_CACHE[model] = {}
+    key = (method, params, options.nullspace)  # params None (the defaults): a cheap hash
     got = cache.get(key)
     if got is None:
-        got = cache[key] = _method_params(model, p, options)
+        got = cache[key] = _method_params(model, params or _PARAMS[method], options)
     return got
 
 
@@ -170,22 +172,28 @@ def run_method(
     check_request(name, goals)  # a goal kind the method has no form for (CCD: look-at)
     method = _METHODS[name]
     ma = model_arrays(model)
-    ga = pack_goals(model, goals)
+    gk = goal_kernel(model, goals)
     run = (method, method_params(model, method, options, params), options.max_iterations,
-           options.restarts + 1, max(options.time_limit - (time.perf_counter() - t0), 1e-9))
-    q_out = np.full(model.dof, np.nan)  # stays NaN if no attempt ever had a finite error
-    tr = trace if trace is not None else np.empty((0, 2))
+           options.restarts + 1, t0 + options.time_limit)
+    q_out = np.empty(model.dof)
+    q_out.fill(np.nan)  # stays NaN if no attempt ever had a finite error
     status, iters, attempts, stalled = E.solve(
-        np.array(q0, dtype=float), ma.kernel, ga.kernel, run,
-        ns_arrays(model, options.nullspace), seed_state(options.seed), q_out, tr)
-    return _finish(label or name, model, goals, q_out, ma.continuous, status, iters, attempts,
-                   stalled, t0, q0)
+        np.array(q0, dtype=float), ma.kernel, gk, run,
+        ns_arrays(model, options.nullspace), seed_state(options.seed), q_out,
+        _NO_TRACE if trace is None else trace)
+    return _finish(label or name, model, goals, q_out, ma, status, iters, attempts, stalled, t0,
+                   q0)
+
+
+#: The ``trace`` of a solve that records none (no rows: the kernel never writes to it).
+_NO_TRACE = np.empty((0, 2))
 
 
 def _finish(name: str, model: KinematicModel, goals: tuple[Goal, ...], q: Array,
-            continuous: npt.NDArray[np.bool_], status: int, iters: int, attempts: int,
-            stalled: int, started: float, start: Array) -> IKResult:
-    q = wrap_continuous(q, continuous)
+            ma: ModelArrays, status: int, iters: int, attempts: int, stalled: int,
+            started: float, start: Array) -> IKResult:
+    if ma.wraps:
+        q = wrap_continuous(q, ma.continuous)
     message = ""
     if status == E.CONVERGED:
         st = IKStatus.CONVERGED

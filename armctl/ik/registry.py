@@ -257,4 +257,7 @@ def solve(
     fn = get_solver(solver)
     check_request(solver, goals, constraints)
     start = model.middle() if q0 is None else model.clip(q0)
-    return fn(model, goals, start, options or IKOptions(), tuple(constraints))
+    return fn(model, goals, start, options or _DEFAULT_OPTIONS, tuple(constraints))
+
+
+_DEFAULT_OPTIONS = IKOptions()  # frozen: one instance serves every call without options

@@ -229,11 +229,11 @@ def finish(
         v = float(c.violation(model, qa))
         cerrs.append(ConstraintViolation(c.describe(model), v, float(c.tolerance),
                                          bool(c.hard), v <= c.tolerance))
-    reached = all(e.reached for e in errs)
-    met = reached and all(e.satisfied for e in cerrs if e.hard)
+    reached = all([e.reached for e in errs])
+    met = reached and all([e.satisfied for e in cerrs if e.hard])
     success = met and inside
-    dp = max(e.position for e in errs)
-    dr = max(e.rotation for e in errs)
+    dp = max([e.position for e in errs])
+    dr = max([e.rotation for e in errs])
     notes = [message] if message else []
     if success:
         status = IKStatus.CONVERGED

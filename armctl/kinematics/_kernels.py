@@ -1,5 +1,8 @@
 """Compiled (numba) kernels for forward kinematics and geometric Jacobians.
 
+numba compiles them when the first one is read from this module (see
+:mod:`armctl.kinematics._lazy_kernels`); :func:`interpreted` runs them without numba.
+
 The tree is packed into flat arrays by :func:`armctl.kinematics.compiled_tree.compile_tree`
 (:class:`~armctl.kinematics.compiled_tree.CompiledTree` documents each array and names its
 columns); the kernels take them as plain arguments:
@@ -23,12 +26,17 @@ axis (revolute) or a translation along it (prismatic).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
-import numba as nb
 import numpy as np
 
+from armctl.kinematics._lazy_kernels import KernelSet
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+_ks = KernelSet(__name__)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
 def _step(t: np.ndarray, row: np.ndarray, qj: float) -> None:
     """``t = t @ pre @ M(qj)`` in place; ``t`` is a 3x4 block."""
     # a = t @ pre
@@ -79,7 +87,7 @@ def _step(t: np.ndarray, row: np.ndarray, qj: float) -> None:
     t[2, 3] = p2
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
 def _apply_offset(t: np.ndarray, off: np.ndarray, out: np.ndarray) -> None:
     """``out = [t; 0 0 0 1] @ [off; 0 0 0 1]`` with ``out`` 4x4."""
     for i in range(3):
@@ -94,14 +102,14 @@ def _apply_offset(t: np.ndarray, off: np.ndarray, out: np.ndarray) -> None:
     out[3, 3] = 1.0
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
 def _identity34(t: np.ndarray) -> None:
     for i in range(3):
         for k in range(4):
             t[i, k] = 1.0 if i == k else 0.0
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
 def _record_axis(t: np.ndarray, row: np.ndarray, w: np.ndarray, o: np.ndarray, i: int) -> None:
     """Store the world axis and origin of the joint just stepped (row ``i`` of ``w``, ``o``).
 
@@ -116,7 +124,7 @@ def _record_axis(t: np.ndarray, row: np.ndarray, w: np.ndarray, o: np.ndarray, i
     o[i, 2] = t[2, 3]
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
 def _fill_columns(pose: np.ndarray, w: np.ndarray, o: np.ndarray, cols: np.ndarray,
                   prismatic: np.ndarray, depth: int, jac: np.ndarray) -> None:
     """Jacobian columns ``[w x (p - o); w]`` (revolute) or ``[w; 0]`` (prismatic), others 0."""
@@ -139,7 +147,7 @@ def _fill_columns(pose: np.ndarray, w: np.ndarray, o: np.ndarray, cols: np.ndarr
             jac[5, j] = wz
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def fk_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
             out: np.ndarray) -> None:
     """Pose of frame ``f`` written into ``out`` (4x4)."""
@@ -154,7 +162,7 @@ def fk_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f:
     _apply_offset(t, fd[f], out)
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def fk(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int) -> np.ndarray:
     """Pose ``(4, 4)`` of frame ``f`` at joint vector ``q``."""
     out = np.empty((4, 4))
@@ -162,7 +170,7 @@ def fk(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int)
     return out
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def fk_jacobian_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
                      pose: np.ndarray, jac: np.ndarray) -> None:
     """Pose (4x4) and geometric Jacobian (6 x n, rows [linear; angular]) of frame ``f``."""
@@ -186,7 +194,7 @@ def fk_jacobian_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.nd
     _fill_columns(pose, w, o, path, prismatic, depth, jac)
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def jacobian(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
              f: int) -> np.ndarray:
     """Geometric Jacobian ``(6, n)`` of frame ``f``."""
@@ -196,7 +204,7 @@ def jacobian(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
     return jac
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def fk_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
              f: int) -> np.ndarray:
     """Poses ``(N, 4, 4)`` of frame ``f`` for joint vectors ``qs`` ``(N, n)``."""
@@ -206,7 +214,7 @@ def fk_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
     return out
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def jacobian_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
                    f: int) -> np.ndarray:
     """Jacobians ``(N, 6, n)`` of frame ``f`` for joint vectors ``qs`` ``(N, n)``."""
@@ -217,7 +225,7 @@ def jacobian_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.nda
     return out
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def fk_all(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, anchor: np.ndarray,
            fd: np.ndarray) -> np.ndarray:
     """Poses ``(m, 4, 4)`` of every named frame; ``anchor[f]`` is the frame's joint or -1."""
@@ -243,7 +251,7 @@ def fk_all(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, anchor: np.ndarray
 # frame's 3x4 offset in the first 12 entries of the last row; ``idx`` (k,): those joints' indices.
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def chain_fk(q: np.ndarray, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Pose ``(4, 4)`` of the frame described by ``rows``/``idx``."""
     t = np.empty((3, 4))
@@ -256,7 +264,7 @@ def chain_fk(q: np.ndarray, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def chain_fk_jacobian_into(q: np.ndarray, rows: np.ndarray, idx: np.ndarray, pose: np.ndarray,
                            jac: np.ndarray) -> None:
     """Pose (4x4) and geometric Jacobian (6 x dof) of the frame described by ``rows``/``idx``."""
@@ -272,10 +280,23 @@ def chain_fk_jacobian_into(q: np.ndarray, rows: np.ndarray, idx: np.ndarray, pos
     _fill_columns(pose, w, o, idx, rows[:, 15], k, jac)
 
 
-@nb.njit(cache=True, nogil=True, error_model="numpy")
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def chain_jacobian(q: np.ndarray, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Geometric Jacobian ``(6, dof)`` of the frame described by ``rows``/``idx``."""
     pose = np.empty((4, 4))
     jac = np.empty((6, q.shape[0]))
     chain_fk_jacobian_into(q, rows, idx, pose, jac)
     return jac
+
+
+_ks.finish(globals())
+
+
+def __getattr__(name: str) -> Any:
+    """A kernel: numba is imported and the kernels compiled when the first one is read."""
+    return _ks.getattr(name)
+
+
+def interpreted(name: str) -> Callable[..., Any]:
+    """Kernel ``name`` run by the Python interpreter: same results, nothing to load."""
+    return _ks.interpreted(name)

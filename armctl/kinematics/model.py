@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -11,7 +14,6 @@ import numpy.typing as npt
 from armctl.config.schema import ArmSpec, JointRole, JointType
 from armctl.config.tree import check_arm_size
 from armctl.errors import InputError, JointLimitError, KeyPath, UnknownNameError
-from armctl.kinematics import _kernels as K
 from armctl.kinematics.compiled_tree import (
     FRAME_OFFSET,
     JOINT_COLUMNS,
@@ -21,7 +23,50 @@ from armctl.kinematics.compiled_tree import (
 )
 from armctl.typing import Array
 
+if TYPE_CHECKING:
+    from armctl.kinematics import _kernels as K
+
 __all__ = ["KinematicModel"]
+
+
+#: Kernels that a single pose needs: interpreted while numba is not loaded (see _Kernels).
+_SINGLE = frozenset({"chain_fk", "chain_jacobian", "chain_fk_jacobian_into", "fk_all"})
+#: Single-pose calls run interpreted before the compiled kernels take over: some 0.1 s in all,
+#: a fraction of what loading the compiled kernels costs, so a long process loses little.
+_INTERPRETED_CALLS = 1000
+
+
+class _Kernels(ModuleType):
+    """Stands for :mod:`armctl.kinematics._kernels` until the compiled kernels are worth loading.
+
+    Loading numba and its compiled kernels takes about half a second. A process that computes
+    a few poses (``armctl fk``, ``armctl info``) is done sooner with the kernels' own code run
+    by the interpreter (the same operations, the same results; some 0.1 ms a pose). So the
+    first single-pose calls run interpreted while numba is not imported; a batch, the
+    ``_INTERPRETED_CALLS``-th call, or any call once something else has imported numba (the
+    IK solvers do) puts the compiled module in this object's place for good.
+    """
+
+    calls = 0
+
+    def __getattr__(self, name: str) -> Any:
+        global K
+        from armctl.kinematics import _kernels
+
+        if name in _SINGLE and self.calls < _INTERPRETED_CALLS and "numba" not in sys.modules:
+            self.calls += 1
+            return _kernels.interpreted(name)
+        K = _kernels
+        return getattr(_kernels, name)
+
+
+if not TYPE_CHECKING:
+    K = _Kernels("armctl.kinematics._kernels (not imported yet)")
+
+
+def _finite(values: list[float]) -> bool:
+    """Whether every number is finite (one sum; each number only when the sum is not finite)."""
+    return math.isfinite(sum(values)) or all(math.isfinite(v) for v in values)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -61,6 +106,8 @@ class KinematicModel:
         self.lower: Array = self.tree.lower
         #: Upper position limits [rad]/[m] (+inf for continuous joints).
         self.upper: Array = self.tree.upper
+        self._lower: list[float] = self.lower.tolist()
+        self._upper: list[float] = self.upper.tolist()
         nan = float("nan")
 
         def arr(key: str) -> Array:
@@ -155,7 +202,7 @@ class KinematicModel:
         if arr.shape != (self.dof,):
             raise InputError(f"{what} must have {self.dof} values ({', '.join(self.joint_names)})"
                              f" for arm {self.name!r}; got shape {arr.shape}")
-        if not math.isfinite(arr.sum()):  # one reduction: NaN or inf anywhere makes it non-finite
+        if not _finite(arr.tolist()):
             raise InputError(f"{what} contains a NaN or infinite value: {arr.tolist()}")
         return arr
 
@@ -178,8 +225,9 @@ class KinematicModel:
 
     def within_limits(self, q: npt.ArrayLike, tol: float = 1e-9) -> bool:
         """Whether every joint value lies inside its position limits (with tolerance ``tol``)."""
-        arr = self.as_q(q)
-        return bool(np.all(arr >= self.lower - tol) and np.all(arr <= self.upper + tol))
+        # plain floats: for a few joints several times faster than NumPy's comparisons
+        return all([lo - tol <= v <= hi + tol for v, lo, hi in
+                    zip(self.as_q(q).tolist(), self._lower, self._upper, strict=True)])
 
     def check_limits(self, q: npt.ArrayLike, context: str = "", tol: float = 1e-9) -> Array:
         """Return ``q`` if it is inside the limits, else raise for the first offending joint.
@@ -197,7 +245,9 @@ class KinematicModel:
 
     def clip(self, q: npt.ArrayLike) -> Array:
         """``q`` clipped into the position limits."""
-        return np.clip(self.as_q(q), self.lower, self.upper)
+        out = np.maximum(self.as_q(q), self.lower)  # np.clip, without its wrapper's cost
+        np.minimum(out, self.upper, out=out)
+        return out
 
     def wrap_toward(self, q: npt.ArrayLike, q_ref: npt.ArrayLike) -> Array:
         """``q`` with rotary joints shifted by whole turns toward ``q_ref``, inside the limits.

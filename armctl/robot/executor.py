@@ -46,6 +46,19 @@ logger = logging.getLogger(__name__)
 RETRY_WARNING = 0.05
 RETRY_WARNING_MIN = 3
 
+#: A joint is at rest when, at every reading over the settle dwell, its present velocity is
+#: below this many arrival tolerances per second (0.03 rad/s, 3 mm/s at the default
+#: tolerances: one count of a Dynamixel's 0.229 rpm velocity unit passes, two do not) ...
+REST_SPEED = 3.0
+#: ... the mean of those velocities is below this many tolerances per second (0.01 rad/s: a
+#: servo still creeping at one velocity count is not at rest, one flickering between 0 and
+#: +-1 count is) ...
+REST_DRIFT = 1.0
+#: ... and its readings span at most this fraction of its arrival tolerance (2.5 mrad: one
+#: tick of a 4096-tick servo passes, two do not). A bus that reports no velocity is judged by
+#: its readings alone.
+REST_BAND = 0.25
+
 
 class BusState(Protocol):
     """What the loop reads from a bus state (:class:`armctl.servo.arm_bus.JointState`)."""
@@ -53,6 +66,11 @@ class BusState(Protocol):
     @property
     def position(self) -> Array:
         """Present positions [rad]/[m]."""
+        ...
+
+    @property
+    def velocity(self) -> Array:
+        """Present velocities [rad/s]/[m/s]."""
         ...
 
     @property
@@ -118,7 +136,8 @@ class StreamStats:
         overruns: Deadlines missed entirely.
         io_time_mean: Mean time of one write + read [s].
         max_tracking_error: Largest tracking error per bus joint [rad]/[m].
-        settle_time: Time after the end of the plan until the servos were within tolerance [s].
+        settle_time: Time after the end of the plan (or of a stop) until the servos had settled:
+            every joint within its arrival tolerance and at rest for the settle dwell [s].
         retries: Failed bus attempts (missing, corrupt or late replies, each retried) per
             servo id during the motion; only servos with any.
     """
@@ -183,8 +202,9 @@ class Executor:
         rate_hz: Loop rate [Hz].
         max_tracking_error: Stop when |measured - commanded| exceeds this [rad]/[m].
         settle_tolerance: Arrival tolerance of rotary joints [rad]: at the end of a motion
-            every arm joint must come this close to the goal, else the motion fails.
-        settle_timeout: Longest wait for that [s].
+            every arm joint must come this close to the goal and come to rest there, else the
+            motion fails.
+        settle_timeout: Longest wait for that after the last sample of the plan [s].
         lost_after: A servo counts as lost after this many cycles in a row without a reply
             (each read already retries; one slow cycle is not a lost servo).
         settle_tolerance_linear: Arrival tolerance of prismatic joints [m].
@@ -193,7 +213,12 @@ class Executor:
             registers.
         clock: Time base of the loop (default :func:`~armctl.clock.default_clock`); give it the
             simulated bus's :class:`~armctl.clock.SimulatedClock` to stream in simulated time.
+        settle_dwell: How long every joint must stay within its tolerance and at rest before
+            the motion counts as arrived [s].
 
+    A joint is at rest when, over the whole dwell, its present velocity stays below
+    :data:`REST_SPEED` tolerances per second and averages below :data:`REST_DRIFT`, and its
+    readings span at most :data:`REST_BAND` of a tolerance.
     Gripper joints are not held to the arrival tolerance: a gripper closing on an object
     stops short of its goal by design.
     """
@@ -203,7 +228,7 @@ class Executor:
                  settle_tolerance: float = 0.01, settle_timeout: float = 1.0,
                  lost_after: int = 3, settle_tolerance_linear: float = 0.001,
                  explain_short: Callable[[str, float], str | None] | None = None,
-                 clock: Clock | None = None):
+                 clock: Clock | None = None, settle_dwell: float = 0.05):
         self.bus = bus
         self.clock = clock if clock is not None else default_clock()
         self.model = model
@@ -212,6 +237,7 @@ class Executor:
         self.max_tracking_error = float(max_tracking_error)
         self.settle_tolerance = settle_tolerance
         self.settle_timeout = settle_timeout
+        self.settle_dwell = float(settle_dwell)
         self.lost_after = lost_after
         self.explain_short = explain_short
         self.idx = np.array([model.joint_index(n) for n in bus.joint_names], dtype=int)
@@ -285,6 +311,10 @@ class Executor:
         return out
 
     def _read(self) -> Array:
+        return self._read_state()[0]
+
+    def _read_state(self) -> tuple[Array, Array | None]:
+        """Present positions and velocities (``None`` when the bus reports none)."""
         try:
             state = self.bus.read_state()
         except BusError as exc:
@@ -295,7 +325,13 @@ class Executor:
                 what = ", ".join(getattr(a, "value", str(a)) for a in alarms)
                 raise _Abort(StopReason.SERVO_ERROR,
                              f"servo {sid} (joint {name!r}) reports {what}", name, sid)
-        return np.asarray(state.position, dtype=np.float64)
+        pos = np.asarray(state.position, dtype=np.float64)
+        vel = getattr(state, "velocity", None)
+        if vel is not None:
+            vel = np.asarray(vel, dtype=np.float64)
+            if vel.shape != pos.shape:
+                vel = None
+        return pos, vel
 
     # ---- the loop --------------------------------------------------------------------------
     def run(self, plan: MotionPlan, stop: StopRequest | None = None,
@@ -463,6 +499,8 @@ class Executor:
                                               stop=stop)
         elif not blind:
             settle, meas_final = self._settle(final_cmd, plan, t_stop, require=False)
+            if abort is not None and abort.reason is StopReason.TRACKING:
+                final_cmd = self._give_way(final_cmd, meas_final, plan)
         if abort is None and stop.requested:  # in the last cycle, or while settling
             raise self._stopped_at_goal(plan, stop) from failure
         jit = np.array(jitter) if jitter else np.zeros(1)
@@ -495,13 +533,19 @@ class Executor:
 
     def _settle(self, goal: Array, plan: MotionPlan, at: float, require: bool = True,
                 stop: StopRequest | None = None) -> tuple[float, Array]:
-        """Keep holding ``goal`` until the servos are within tolerance (or time out).
+        """Keep holding ``goal`` until the servos have settled there (or time out).
+
+        Settled means that every joint (other than a gripper) is within its arrival tolerance
+        of ``goal`` and at rest (see :class:`Executor`) at every reading over
+        ``settle_dwell``. A position loop closes in on its goal gradually, so a joint that has
+        just come within its tolerance may still be moving: the position it comes to rest at is
+        the one the motion reports.
 
         Args:
             goal: The position to hold (bus joint order): the plan's end, or where a stop ended.
             plan: The plan that was streamed (for the joints without a servo, and the report).
             at: When along the plan the motion ended [s] (its duration, or where a stop began).
-            require: Fail if a joint (other than a gripper) has not arrived by the timeout.
+            require: Fail if a joint (other than a gripper) has not settled by the timeout.
             stop: Stop requests to watch: a request ends the wait at once (the goal stays
                 commanded; the caller reports the stop).
 
@@ -510,40 +554,78 @@ class Executor:
 
         Raises:
             MotionStopped: For a servo alarm, a servo lost for ``lost_after`` reads, a bus
-                error while holding the goal, or (with ``require``) a joint short of its goal
-                (reason ``NOT_REACHED``), naming the joint, its servo, how far short it is and
-                a likely cause.
+                error while holding the goal, or (with ``require``) a joint that has not
+                settled by ``settle_timeout`` (reason ``NOT_REACHED``), naming the joint, its
+                servo, how far short it is (and how fast it still moves) and a likely cause.
         """
         clock = self.clock
         t0 = clock.now()
         dt = 1.0 / self.rate_hz
         meas = np.full_like(goal, np.nan)
+        vel: Array | None = None
+        # the readings since every joint came within its tolerance at a low speed (trimmed to
+        # the last dwell) and when that was
+        window: list[tuple[float, Array, Array | None]] = []
+        since = t0
+        restless = np.zeros(goal.shape, dtype=bool)  # the joints that ended the last window
         misses = 0
         while True:
             try:
-                meas = self._read()
+                meas, vel = self._read_state()
                 misses = 0
             except _Abort as exc:
                 misses += 1
                 if exc.reason is not StopReason.LOST_SERVO or misses >= self.lost_after:
                     raise self._settle_failed(exc, goal, plan, at, require) from None
+                window.clear()  # a reading missed: the rest must be seen again
                 clock.sleep_until(clock.now() + dt)
                 continue
+            now = clock.now()
             if stop is not None and stop.requested:
-                return clock.now() - t0, meas
+                return now - t0, meas
+            if goal.size == 0:
+                return now - t0, meas
             short = (np.abs(meas - goal) > self.arrival_tolerance) & self.must_arrive
-            if goal.size == 0 or not short.any():
-                return clock.now() - t0, meas
-            if clock.now() - t0 > self.settle_timeout:
+            fast = np.zeros(goal.shape, dtype=bool) if vel is None else (
+                (np.abs(vel) > REST_SPEED * self.arrival_tolerance) & self.must_arrive)
+            if short.any() or fast.any():
+                window.clear()
+                restless = fast
+            else:
+                if not window:
+                    since = now
+                window.append((now, meas, vel))
+                span = max(self.settle_dwell, dt)  # at least two readings
+                window = [r for r in window if r[0] >= now - span - 1e-9]
+                if now - since >= self.settle_dwell - 1e-9:
+                    restless = self._drifting(window)
+                    if not restless.any():
+                        return now - t0, meas
+            if now - t0 > self.settle_timeout:
                 if require:
-                    raise self._not_reached(goal, meas, short, clock.now() - t0,
-                                            self._full(plan, goal), at)
-                return clock.now() - t0, meas
-            clock.sleep_until(clock.now() + dt)
+                    raise self._not_reached(goal, meas, vel, short, restless & ~short,
+                                            now - t0, self._full(plan, goal), at)
+                return now - t0, meas
+            clock.sleep_until(now + dt)
             try:  # nothing to a servo that reported an alarm: the next read names it
                 self._write(self._full(plan, goal), skip_alarmed=True)
             except _Abort as exc:
                 raise self._settle_failed(exc, goal, plan, at, require) from None
+
+    def _drifting(self, window: Sequence[tuple[float, Array, Array | None]]
+                  ) -> npt.NDArray[np.bool_]:
+        """The joints (gripper excepted) not at rest over ``window``: (time, reading, velocity).
+
+        Every reading of the window is within tolerance and below :data:`REST_SPEED` already;
+        a joint still drifts when its readings span more than :data:`REST_BAND` of a
+        tolerance or its velocities average more than :data:`REST_DRIFT` tolerances per second.
+        """
+        pos = np.array([r[1] for r in window])
+        drift = np.ptp(pos, axis=0) > REST_BAND * self.arrival_tolerance
+        vels = [r[2] for r in window]
+        if all(v is not None for v in vels):
+            drift |= np.abs(np.mean(np.array(vels), axis=0)) > REST_DRIFT * self.arrival_tolerance
+        return drift & self.must_arrive
 
     def _full(self, plan: MotionPlan, bus_values: Array) -> Array:
         """The arm vector ``(dof,)``: ``bus_values`` on the servo joints, else the plan's end."""
@@ -569,39 +651,115 @@ class Executor:
                              "its goal; the arm holds there", None, None, self._full(plan, held),
                              plan.duration, stop.signum)
 
-    def _not_reached(self, goal: Array, meas: Array, short: npt.NDArray[np.bool_],
+    def _not_reached(self, goal: Array, meas: Array, vel: Array | None,
+                     short: npt.NDArray[np.bool_], restless: npt.NDArray[np.bool_],
                      waited: float, held: Array, at: float) -> MotionStopped:
-        """The error for joints that stopped short of the goal at the end of a motion."""
+        """The error for joints that did not settle at the goal at the end of a motion.
+
+        Args:
+            goal: The goal (bus joint order).
+            meas: The last reading.
+            vel: The last velocity reading (``None`` when the bus reports none).
+            short: Joints outside their arrival tolerance.
+            restless: Joints within it but not at rest.
+            waited: Time since the end of the motion [s].
+            held: The goal held, arm vector.
+            at: When along the plan the motion ended [s].
+        """
         load: Array | None = None
         try:
             load = np.asarray(getattr(self.bus.read_state(), "load", None), dtype=float)
         except (BusError, TypeError, ValueError):
             load = None
-        gap = np.where(short, np.abs(meas - goal), 0.0)
-        j = int(np.argmax(gap))
+        dist = np.abs(meas - goal)
+        speed = np.abs(vel) if vel is not None else None
+        if short.any():
+            j = int(np.argmax(np.where(short, dist, -1.0)))
+        else:  # all within tolerance: the one moving most (relative to its tolerance)
+            score = (speed if speed is not None else dist) / self.arrival_tolerance
+            j = int(np.argmax(np.where(restless, score, -1.0) if restless.any() else dist))
         name = self.bus.joint_names[j]
         sid = self._servo_id(name)
         i = int(self.idx[j])
         servo = f" (servo {sid})" if sid is not None else ""
-        text = (f"joint {name!r}{servo} stopped {self._shown(i, gap[j])} short of its "
-                f"goal: it is at {self._shown(i, meas[j])}, the goal is "
-                f"{self._shown(i, goal[j])} (tolerance "
-                f"{self._shown(i, float(self.arrival_tolerance[j]))}), {waited:.1f} s "
-                "after the end of the motion; the move did not arrive")
-        others = [f"{self.bus.joint_names[k]} {self._shown(int(self.idx[k]), gap[k])}"
+        where = (f"it is at {self._shown(i, meas[j])}, the goal is {self._shown(i, goal[j])} "
+                 f"(tolerance {self._shown(i, float(self.arrival_tolerance[j]))})")
+        moves = (f"moving at {self._shown(i, float(speed[j]))}/s"
+                 if speed is not None and speed[j] > 0 else "creeping, its readings changing")
+        after = f"{waited:.1f} s after the end of the motion; the move did not arrive"
+        if short[j]:
+            text = (f"joint {name!r}{servo} stopped {self._shown(i, dist[j])} short of its "
+                    f"goal: {where}, {after}")
+        else:
+            text = (f"joint {name!r}{servo} did not come to rest at its goal: {where}, still "
+                    f"{moves} (it is {self._shown(i, dist[j])} off), {after}")
+        others = [f"{self.bus.joint_names[k]} {self._shown(int(self.idx[k]), dist[k])}"
                   for k in np.flatnonzero(short) if k != j]
         if others:
             text += f" (also short: {', '.join(others)})"
-        cause = self.explain_short(name, float(goal[j])) if self.explain_short else None
-        if cause is None:
-            reading = (f" (present load reading {load[j]:.2f})"
+        unrest = [str(self.bus.joint_names[k]) for k in np.flatnonzero(restless) if k != j]
+        if unrest:
+            text += f" (also not at rest: {', '.join(unrest)})"
+        cause = (self.explain_short(name, float(goal[j]))
+                 if self.explain_short and short[j] else None)
+        if cause is None and short[j]:
+            reading = (f" (present load: {100 * load[j]:.0f} % of the servo's stall torque)"
                        if load is not None and load.shape == goal.shape else "")
             cause = ("Likely cause: something blocks the joint or it carries more than the "
                      f"servo can hold{reading}, or the servo's own Min/Max Position Limit "
                      "register stops it. Check for an obstacle and the load, and compare the "
                      "registers with 'armctl status'.")
-        return MotionStopped(StopReason.NOT_REACHED, f"{text}. {cause} Torque stays on with "
-                             "the goal commanded.", name, sid, held, at)
+        elif cause is None:
+            cause = ("Likely cause: the servo hunts around its goal (its position gains are "
+                     "too high for what the joint carries) or something keeps pushing the "
+                     "joint. Check the load, and the servo's position gain registers (a lower "
+                     "P gain or a higher D gain damps it).")
+        if short.any():
+            bus_held = self._give_way(goal, meas, None)
+            held = held.copy()
+            held[self.idx] = bus_held
+            hold_text = ("Torque stays on: the joints short of their goal hold where they "
+                         "stopped (no longer pushing), the others hold the goal.")
+        else:
+            hold_text = "Torque stays on with the goal commanded."
+        return MotionStopped(StopReason.NOT_REACHED, f"{text}. {cause} {hold_text}", name, sid,
+                             held, at)
+
+    def _give_way(self, goal: Array, meas: Array, plan: MotionPlan | None) -> Array:
+        """Stop pushing: joints held away from ``goal`` take their measured position as goal.
+
+        A joint that something blocks would otherwise press on the obstacle at full current
+        and heat its servo until the overheating alarm. Grippers keep their goal (they close on
+        objects by design); the new goals stay inside the limits.
+
+        Args:
+            goal: The goal held now (bus joint order).
+            meas: The last reading (bus joint order).
+            plan: The plan (for the joints without a servo); ``None``: the arm's present
+                command is used for those.
+
+        Returns:
+            The goal held from now on (bus joint order).
+        """
+        away = (np.abs(meas - goal) > self.arrival_tolerance) & self.must_arrive & np.isfinite(meas)
+        if not away.any():
+            return goal
+        new = np.where(away, np.clip(meas, self.limits.lower[self.idx],
+                                     self.limits.upper[self.idx]), goal)
+        if plan is not None:
+            full = self._full(plan, new)
+        else:
+            full = np.zeros(self.model.dof)
+            full[self.idx] = new
+        try:
+            self._write(full, skip_alarmed=True)
+        except _Abort as exc:
+            logger.warning("could not relieve the blocked joints: %s", exc.message)
+            return goal
+        logger.warning("holding %s where %s stopped instead of pushing on",
+                       ", ".join(str(self.bus.joint_names[k]) for k in np.flatnonzero(away)),
+                       "it" if int(away.sum()) == 1 else "they")
+        return new
 
     def _shown(self, i: int, value: float) -> str:
         """A joint value or distance for a message: degrees (rotary) or millimetres."""

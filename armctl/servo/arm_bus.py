@@ -21,6 +21,7 @@ from armctl.errors import ConfigError, InputError
 from armctl.servo import errors as E
 from armctl.servo.calibration import Calibration
 from armctl.servo.driver import Feedback, ServoBus
+from armctl.servo.load_units import load_scale
 from armctl.servo.mapping import JointMapping
 from armctl.servo.sim.bus import SimulatedBus
 from armctl.servo.simulated_arm import simulated_bus_for
@@ -48,8 +49,16 @@ class JointState:
         names: Joint names (the order of every array).
         position: Joint values [rad] or [m].
         velocity: Joint velocities [rad/s] or [m/s].
-        load: Present load / 1000 in the servo's unit: a fraction of the maximum torque (-1..1)
-            for 0.1 % units (STS3215, XL430), [A] for current-sensing models (XL330, XM430).
+        load: The servo's torque as a fraction of its stall torque (-1..1; the same on every
+            model): the reported load on models that report it in 0.1 % (STS3215, XL430-W250),
+            the reported current over the motor's stall current on current-sensing models
+            (XL330, XM430, XM540; beyond +-1 only if the current exceeds the stall current at
+            the rated voltage). Signed like :attr:`velocity`: positive pushes the joint towards
+            larger values. See :mod:`armctl.servo.load_units`.
+        current: Motor current [A], signed like :attr:`load`, on models whose feedback holds a
+            current (XL330, XM430, XM540); NaN on the others (XL430-W250 has no current
+            sensing; the STS3215's Present_Current lies outside the feedback block, and reading
+            it would cost a second transaction per cycle).
         temperature: Servo temperatures [degC].
         voltage: Servo input voltages [V].
         ticks: Raw present positions [tick].
@@ -60,6 +69,7 @@ class JointState:
     position: Array
     velocity: Array
     load: Array
+    current: Array
     temperature: Array
     voltage: Array
     ticks: npt.NDArray[np.int64]
@@ -98,6 +108,10 @@ class ArmBus:
         self.calibration: Calibration | None = None
         self.arm_name = "arm"
         self._alarmed: dict[int, tuple[Alarm, ...]] = {}  # servo id -> alarms it reported
+        # load register count -> fraction of the stall torque / amperes, in the joint's sense
+        scales = [(j.direction, load_scale(j.model)) for j in mapping.joints]
+        self._load_fraction = np.array([d * s.fraction for d, s in scales])
+        self._load_amps = np.array([d * s.amps for d, s in scales])
 
     @classmethod
     def from_spec(cls, spec: ArmSpec, calibration: Calibration | None = None, *,
@@ -195,7 +209,7 @@ class ArmBus:
         return self._bus
 
     def _configure(self) -> None:
-        """Operating modes (multi-turn where needed) and calibrated homing offsets."""
+        """Operating modes (multi-turn where needed), calibrated homing offsets, drive modes."""
         bus = self.servo_bus
         for j in self.mapping.joints:
             vendor = table_for(j.model).vendor
@@ -205,6 +219,9 @@ class ArmBus:
                 assert mode is not None  # the mapping allows multi-turn only with it  # mypy.
                 wants.append((Register.OPERATING_MODE, mode))
             wants.append((Register.HOMING_OFFSET, j.homing_offset))
+            if j.servo_reverse is not None:  # a calibration that recorded the drive mode
+                drive = bus.read(j.servo_id, Register.DRIVE_MODE)
+                wants.append((Register.DRIVE_MODE, (drive & ~1) | int(j.servo_reverse)))
             todo = [(r, v) for r, v in wants if bus.read(j.servo_id, r) != v]
             if not todo:
                 continue
@@ -295,6 +312,12 @@ class ArmBus:
             CommError: If the bus fails after its retries.
         """
         got = self.servo_bus.read_positions(self._ids)
+        if any(alarms for _, alarms in got.values()):
+            self._raise_position_alarm(got)
+        return self.mapping.from_ticks({sid: p for sid, (p, _) in got.items()})
+
+    def _raise_position_alarm(self, got: dict[int, tuple[int, tuple[Alarm, ...]]]) -> None:
+        """Raise for the first joint whose position reply flags an alarm (and remember it)."""
         for j in self.mapping.joints:
             alarms = got[j.servo_id][1]
             if alarms:
@@ -305,10 +328,9 @@ class ArmBus:
                                         fix="remove the cause, then clear it: 'armctl torque "
                                             "CONFIG on --clear-alarms' or "
                                             "ArmBus.clear_alarms() (reboots the servo)")
-        return self.mapping.from_ticks({sid: p for sid, (p, _) in got.items()})
 
     def read_state(self) -> JointState:
-        """Position, velocity, load, temperature, voltage and alarms of every servo joint.
+        """Position, velocity, load, current, temperature, voltage and alarms of every joint.
 
         One sync read (plus one register read per Dynamixel servo that flags an alarm).
         """
@@ -317,10 +339,10 @@ class ArmBus:
         pos = self.mapping.from_ticks({sid: f.position for sid, f in fb.items()})
         vel = np.array([fb[j.servo_id].velocity * 2 * math.pi
                         / (j.direction * j.gear_ratio * j.ticks_per_rev) for j in js])
-        load = np.array([fb[j.servo_id].load / 1000.0 for j in js])
+        raw = np.array([float(fb[j.servo_id].load) for j in js])  # load register [count]
         return JointState(
             names=self.joint_names, position=_frozen(pos), velocity=_frozen(vel),
-            load=_frozen(load),
+            load=_frozen(raw * self._load_fraction), current=_frozen(raw * self._load_amps),
             temperature=_frozen(np.array([float(fb[j.servo_id].temperature) for j in js])),
             voltage=_frozen(np.array([fb[j.servo_id].voltage for j in js])),
             ticks=_frozen(np.array([fb[j.servo_id].position for j in js], dtype=np.int64)),
@@ -342,11 +364,13 @@ class ArmBus:
             ServoAlarmError: A servo reported an alarm (see :attr:`alarmed`); nothing is sent.
         """
         arr = self.mapping.as_vector(q)
-        if not np.all(np.isfinite(arr)):
+        if not np.isfinite(arr).all():
             bad = self.joint_names[int(np.argmin(np.isfinite(arr)))]
             raise InputError(f"joint {bad!r}: goal is not a finite number; nothing was sent")
         ticks = self.mapping.goal_ticks(arr)
-        if skip_alarmed:
+        if not self._alarmed:  # the usual case: nothing to leave out or refuse
+            pass
+        elif skip_alarmed:
             ticks = {sid: t for sid, t in ticks.items() if sid not in self._alarmed}
         else:
             self._refuse_alarmed(list(ticks), "the goal")

@@ -40,6 +40,12 @@ class JointCalibration:
         homing_offset: Homing offset written to the servo [tick].
         multi_turn: Whether the joint runs in multi-turn (extended position) mode.
         wrap_detected: Whether the raw encoder wrapped inside the joint's travel.
+        drive_mode: The servo's drive mode the ticks were measured in, or ``None`` when not
+            recorded (a calibration measured by armctl). Bit 0 set means reversed: on a servo
+            with a Drive Mode register (Dynamixel) the servo reverses itself and the bus sets
+            the bit when it opens; on one without (Feetech) the joint counts against the
+            config's direction. Set when a LeRobot calibration is imported
+            (:mod:`armctl.servo.lerobot_calibration`).
     """
 
     servo_id: int
@@ -50,6 +56,14 @@ class JointCalibration:
     homing_offset: int = 0
     multi_turn: bool = False
     wrap_detected: bool = False
+    drive_mode: int | None = None
+
+    def record(self) -> dict[str, object]:
+        """The joint's entry in the calibration file (``drive_mode`` only when recorded)."""
+        out = asdict(self)
+        if out["drive_mode"] is None:
+            del out["drive_mode"]
+        return out
 
 
 @dataclass(frozen=True)
@@ -72,7 +86,7 @@ class Calibration:
     def hash(self) -> str:
         """A short SHA-256 of the content (arm and joints), stable across saves."""
         body = {"arm": self.arm, "version": self.version,
-                "joints": {k: asdict(v) for k, v in sorted(self.joints.items())}}
+                "joints": {k: v.record() for k, v in sorted(self.joints.items())}}
         text = json.dumps(body, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -86,7 +100,7 @@ class Calibration:
             ConfigError: If the file cannot be written; the previous calibration is intact.
         """
         doc = {"armctl_calibration": self.version, "arm": self.arm, "hash": self.hash,
-               "joints": {k: asdict(v) for k, v in self.joints.items()}}
+               "joints": {k: v.record() for k, v in self.joints.items()}}
         return write_atomic(Path(path), "# armctl calibration: written by 'armctl calibrate'; "
                             "do not edit by hand\n" + yaml.safe_dump(doc, sort_keys=False))
 
@@ -109,14 +123,16 @@ class Calibration:
         joints = {}
         for name, sec in root.child("joints").mapping().items():
             sec.check_keys(["servo_id", "zero_tick", "zero_value", "min_tick", "max_tick"],
-                           ["homing_offset", "multi_turn", "wrap_detected"])
+                           ["homing_offset", "multi_turn", "wrap_detected", "drive_mode"])
             joints[name] = JointCalibration(
                 servo_id=sec.integer("servo_id", lo=0, hi=252),
                 zero_tick=sec.number("zero_tick"), zero_value=sec.number("zero_value"),
                 min_tick=sec.number("min_tick"), max_tick=sec.number("max_tick"),
                 homing_offset=sec.integer("homing_offset", 0),
                 multi_turn=sec.boolean("multi_turn", False),
-                wrap_detected=sec.boolean("wrap_detected", False))
+                wrap_detected=sec.boolean("wrap_detected", False),
+                drive_mode=sec.integer("drive_mode", lo=0, hi=255) if sec.has("drive_mode")
+                else None)
         cal = cls(root.string("arm"), joints, version, Path(path))
         if root.has("hash") and root.string("hash") != cal.hash:
             raise root.error(f"hash {root.string('hash')} does not match the content "

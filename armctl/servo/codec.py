@@ -15,9 +15,9 @@ __all__ = [
     "crc16",
     "decode",
     "encode",
-    "feetech_checksum",
     "from_le",
     "stuff",
+    "sum_checksum",
     "to_le",
     "unstuff",
 ]
@@ -36,7 +36,7 @@ def _crc_table() -> tuple[int, ...]:
 _CRC_TABLE = _crc_table()
 
 
-def crc16(data: bytes | bytearray, crc: int = 0) -> int:
+def crc16(data: bytes | bytearray | memoryview, crc: int = 0) -> int:
     """Dynamixel 2.0 CRC-16 of ``data`` (continuing from ``crc``)."""
     for b in data:
         crc = ((crc << 8) ^ _CRC_TABLE[((crc >> 8) ^ b) & 0xFF]) & 0xFFFF
@@ -66,9 +66,13 @@ def unstuff(body: bytes) -> bytes:
     return bytes(out)
 
 
-def feetech_checksum(body: bytes | bytearray) -> int:
-    """Feetech / Dynamixel 1.0 checksum of the bytes from ID to the last param."""
+def sum_checksum(body: bytes | bytearray | memoryview) -> int:
+    """Protocol 1.0-style checksum, ``~sum & 0xFF`` of the bytes from ID to the last param.
+
+    Used by Feetech SCS/STS and Dynamixel Protocol 1.0.
+    """
     return (~sum(body)) & 0xFF
+
 
 
 def to_le(value: int, size: int) -> bytes:

@@ -22,22 +22,24 @@ from armctl.config.bus import Protocol
 from armctl.errors import InputError
 from armctl.servo import errors as E
 from armctl.servo.codec import decode, encode, from_le, to_le
+from armctl.servo.dynamixel.sdk import Dxl1Sdk, DxlSdk
+from armctl.servo.feetech.sdk import FeetechSdk
 from armctl.servo.replies import ReplyLedger, Window
-from armctl.servo.sdk import IO_ERRORS, Dxl1Sdk, DxlSdk, FeetechSdk, Sdk
-from armctl.servo.status import Feedback, PingResult, StatusStyle, alarms_in, refusal
+from armctl.servo.sdk import IO_ERRORS, Sdk
+from armctl.servo.status import Feedback, PingResult
 from armctl.servo_tables import (
     VENDORS,
     Alarm,
     ControlTable,
     Register,
-    alarms_from_bits,
+    RegisterSpec,
     table_for,
     table_for_model_number,
 )
 
 __all__ = ["ServoBus"]
 
-#: The vendor SDK that speaks each protocol.
+#: The vendor adapter that speaks each protocol (the one place that picks a vendor).
 _SDKS: dict[Protocol, type[Sdk]] = {
     Protocol.DYNAMIXEL: DxlSdk, Protocol.DYNAMIXEL1: Dxl1Sdk, Protocol.FEETECH: FeetechSdk}
 
@@ -63,6 +65,27 @@ class _Attempt:
     value: Any = None
     waited: int | None = None
     received: int = 0
+
+
+@dataclass(frozen=True)
+class _SyncPlan:
+    """What a sync read of some registers from some servos asks for.
+
+    Attributes:
+        tables: The servos' tables it was planned with.
+        start: First address of the block.
+        size: Bytes of the block.
+        what: The registers' names, for errors.
+        request: The request, for errors.
+        fields: ``(register, spec, first, end)`` of each register within the block.
+    """
+
+    tables: tuple[ControlTable, ...]
+    start: int
+    size: int
+    what: str
+    request: str
+    fields: tuple[tuple[Register, RegisterSpec, int, int], ...]
 
 
 FEEDBACK = (Register.PRESENT_POSITION, Register.PRESENT_VELOCITY, Register.PRESENT_LOAD,
@@ -94,8 +117,8 @@ class ServoBus:
             sid: table_for(m) for sid, m in (models or {}).items()}
         self.family = protocol.family
         self.vendor = VENDORS[self.family]  # ticks, units and conventions of the family
-        self.p1 = protocol is Protocol.DYNAMIXEL1  # error bit field, no sync read, no reboot
-        self.style = StatusStyle.of(protocol)
+        #: The vendor adapter's class: the protocol's abilities and what its error byte means.
+        self.adapter: type[Sdk] = _SDKS[protocol]
         for sid, t in self.tables.items():
             if t.family is not self.family:
                 raise InputError(f"servo {sid} is a {t.model} ({t.family.value}) on a "
@@ -104,6 +127,7 @@ class ServoBus:
         self._lock = threading.RLock()
         self.ledger = ReplyLedger()
         self._late_now: list[int] = []
+        self._plans: dict[tuple[tuple[int, ...], tuple[Register, ...]], _SyncPlan] = {}
         generic = table_for(self.vendor.generic_model)
         self._generic = generic  # for servos of unknown model (scan): model number, id, memory
 
@@ -117,8 +141,7 @@ class ServoBus:
         """
         if self._sdk is not None:
             return self
-        cls = _SDKS[self.protocol]
-        sdk = cls(self.port, self.latency_ms)
+        sdk = self.adapter(self.port, self.latency_ms)
         try:
             ok = sdk.open(self.baudrate)
         except Exception as exc:  # pyserial raises SerialException (an OSError subclass)
@@ -310,7 +333,7 @@ class ServoBus:
             received += 1
             rsid, err, data = sdk.status(rx)
             if rsid in order and rsid not in got and (len(data) == n or (
-                    refusal_ok and not data and refusal(self.style, err) is not None
+                    refusal_ok and not data and self.adapter.refusal(err) is not None
                     and 0 not in self.ledger.pending(rsid) - {n})):
                 self.ledger.matched(rsid)
                 got[rsid] = (err, data)
@@ -433,8 +456,8 @@ class ServoBus:
         """The servos that answer: a broadcast ping, or unicast pings of ``ids``."""
         sdk = self._need()
         out = []
-        if ids is None and self.p1:
-            ids = range(253)  # Protocol 1.0 has no broadcast ping
+        if ids is None and not self.adapter.has_broadcast_ping:
+            ids = range(253)  # Protocol 1.0: ping ids one by one
         if ids is None:
             with self._lock:
                 try:
@@ -582,7 +605,7 @@ class ServoBus:
     def _check(self, sid: int, reg: Register | None, error: int, reading: bool) -> None:
         """Raise for a refusal; a hardware alarm only fails writes and commands."""
         name = reg.value if reg is not None else None
-        ref = refusal(self.style, error)
+        ref = self.adapter.refusal(error)
         if ref is not None:
             text, access = ref
             table = self.tables.get(sid)
@@ -592,18 +615,18 @@ class ServoBus:
                     "EEPROM write refused", self.port, sid, name, text,
                     fix="turn torque off first (EEPROM is writable only with torque off): "
                         "'armctl torque CONFIG off'")
-            if access and self.style is StatusStyle.DYNAMIXEL2:
+            if access and self.adapter.access_errors:
                 raise E.AccessError("access refused", self.port, sid, name, text)
             raise E.ServoRejectedError("the servo rejected the instruction", self.port, sid,
                                        name, text)
-        found = alarms_in(self.style, error)
+        found = self.adapter.alarms_in(error)
         if (found is None or found) and not reading and reg is not Register.TORQUE_ENABLE:
             self._raise_alarm(sid, name, found)
 
     def alarms(self, sid: int) -> tuple[Alarm, ...]:
         """The hardware alarms servo ``sid`` reports (Hardware Error Status / Status)."""
         bits = self.read(sid, Register.HARDWARE_ERROR)
-        return alarms_from_bits(bits, self.vendor.feetech)
+        return tuple(a for a in Alarm if bits & self.vendor.alarm_bit(a))
 
     def _raise_alarm(self, sid: int, reg: str | None,
                      found: tuple[Alarm, ...] | None = None) -> None:
@@ -633,17 +656,20 @@ class ServoBus:
             NoReplyError: A servo did not answer (named; after the retries).
             InputError: The servos' tables disagree on the registers' addresses.
         """
-        ids = list(ids)
-        specs = [self.table(ids[0]).spec(r) for r in registers]
-        for sid in ids[1:]:
-            for s in specs:
-                o = self.table(sid).spec(s.register)
-                if (o.address, o.size) != (s.address, s.size):
-                    raise InputError(f"servos {ids[0]} and {sid} keep {s.register.value} at "
-                                     "different addresses; they cannot share a sync read")
-        start = min(s.address for s in specs)
-        n = max(s.address + s.size for s in specs) - start
-        what = ", ".join(r.value for r in registers)
+        plan, got = self._sync_read_block(list(ids), tuple(registers))
+        fields = plan.fields
+        return {sid: ({reg: decode(spec, from_le(data[lo:hi])) for reg, spec, lo, hi in fields},
+                      error) for sid, (data, error) in got.items()}
+
+    def _sync_read_block(self, ids: list[int], registers: tuple[Register, ...]
+                         ) -> tuple[_SyncPlan, dict[int, tuple[list[int], int]]]:
+        """The plan and ``{id: (block data, error byte)}`` of a sync read (see :meth:`sync_read`).
+
+        Raises:
+            NoReplyError, CorruptReplyError: A servo did not answer, or refused (named).
+        """
+        plan = self._sync_plan(tuple(ids), registers)
+        start, n, what = plan.start, plan.size, plan.what
 
         def call(sdk: Sdk) -> _Attempt:
             win = self._window(sdk, ids, start, n)
@@ -653,11 +679,12 @@ class ServoBus:
                 return _Attempt(res, waited=ids[0])
             out = self._collect(sdk, ids, win.length, refusal_ok=True)
             if out.result == sdk.SUCCESS:
-                out.value = {sid: (win.slice(data, start, n) if data else [], error)
-                             for sid, (error, data) in out.value.items()}
+                exact = win.start == start and win.length == n  # the block itself
+                out.value = {sid: (data if exact or not data else win.slice(data, start, n),
+                                   error) for sid, (error, data) in out.value.items()}
             return out
         if self._need().has_sync_read:
-            got = self._transact(f"sync read of {n} bytes at {start}", ids[0], what, call)
+            got = self._transact(plan.request, ids[0], what, call)
         else:  # Protocol 1.0: one read per servo
             got = {sid: self._read_block(sid, start, n, "read of feedback", what)
                    for sid in ids}
@@ -665,13 +692,35 @@ class ServoBus:
             if not data:  # refused: an error number and no data
                 self._check(sid, None, error, reading=True)
                 raise E.CorruptReplyError("a reply without data", self.port, sid, what)
-        out = {}
-        for sid, (data, error) in got.items():
-            vals = {s.register: decode(s, from_le(data[s.address - start:
-                                                       s.address - start + s.size]))
-                    for s in specs}
-            out[sid] = (vals, error)
-        return out
+        return plan, got
+
+    def _sync_plan(self, ids: tuple[int, ...], registers: tuple[Register, ...]) -> _SyncPlan:
+        """The block a sync read of ``registers`` asks ``ids`` for (kept while their tables stay).
+
+        Raises:
+            InputError: The servos' tables disagree on the registers' addresses.
+        """
+        tables = tuple(self.table(sid) for sid in ids)
+        plan = self._plans.get((ids, registers))
+        if plan is not None and plan.tables == tables:
+            return plan
+        specs = [tables[0].spec(r) for r in registers]
+        for sid, table in zip(ids[1:], tables[1:], strict=True):
+            for s in specs:
+                o = table.spec(s.register)
+                if (o.address, o.size) != (s.address, s.size):
+                    raise InputError(f"servos {ids[0]} and {sid} keep {s.register.value} at "
+                                     "different addresses; they cannot share a sync read")
+        start = min(s.address for s in specs)
+        size = max(s.address + s.size for s in specs) - start
+        fields = tuple((s.register, s, s.address - start, s.address - start + s.size)
+                       for s in specs)
+        plan = _SyncPlan(tables, start, size, ", ".join(r.value for r in registers),
+                         f"sync read of {size} bytes at {start}", fields)
+        if len(self._plans) >= 32:
+            self._plans.clear()
+        self._plans[(ids, registers)] = plan
+        return plan
 
     def read_feedback(self, ids: Sequence[int]) -> dict[int, Feedback]:
         """Position, velocity, load, voltage, temperature and alarms of many servos.
@@ -695,14 +744,18 @@ class ServoBus:
         The alarms come from each status packet's error byte (asked for by name from a
         Dynamixel servo whose alert bit is set).
         """
-        raw = self.sync_read(ids, (Register.PRESENT_POSITION,))
+        plan, got = self._sync_read_block(list(ids), (Register.PRESENT_POSITION,))
+        ((_, spec, lo, hi),) = plan.fields
+        alarms_in = self.adapter.alarms_in
         out = {}
-        for sid, (v, error) in raw.items():
-            out[sid] = (v[Register.PRESENT_POSITION], self._alarms_from_error(sid, error))
+        for sid, (data, error) in got.items():
+            found = alarms_in(error)
+            out[sid] = (decode(spec, from_le(data[lo:hi])),
+                        self._alarms_from_error(sid, error) if found is None else found)
         return out
 
     def _alarms_from_error(self, sid: int, error: int) -> tuple[Alarm, ...]:
-        found = alarms_in(self.style, error)
+        found = self.adapter.alarms_in(error)
         if found is None:  # Dynamixel Alert bit: ask the servo which alarm
             return self.alarms(sid) or (Alarm.OVERLOAD,)
         return found
@@ -715,8 +768,10 @@ class ServoBus:
         """
         items = {}
         spec = None
+        tables = self.tables
         for sid, value in values.items():
-            spec = self.table(sid).spec(register)
+            table = tables.get(sid)
+            spec = (table or self.table(sid)).spec(register)
             if not spec.writable or not spec.lo <= value <= spec.hi:
                 raise InputError(f"servo {sid} {register.value}: {value} is not writable or "
                                  f"outside [{spec.lo}, {spec.hi}]; nothing was sent")
@@ -724,9 +779,10 @@ class ServoBus:
         if spec is None:
             return
 
+        address, size = spec.address, spec.size
+
         def call(sdk: Sdk) -> _Attempt:
-            assert spec is not None  # mypy.
-            return _Attempt(sdk.sync_write(spec.address, spec.size, items))
+            return _Attempt(sdk.sync_write(address, size, items))
         self._transact(f"sync write of {register.value}", None, register.value, call,
                        replies=False)
 

@@ -1,117 +1,91 @@
-"""Thin adapters over the vendor SDKs: every packet armctl sends goes through them.
+"""The adapter contract over the vendor SDKs: every packet armctl sends is built by them.
 
-``dynamixel_sdk`` (Protocol 2.0) and ``scservo_sdk`` (feetech-servo-sdk) share a port-handler
-design. armctl subclasses their ``PortHandler`` to fix what users suffer from
-(``docs/bus.md``): input is flushed before every transmit (SDK-FT 1.0.0 and SDK-DXL 3.8.4 only
-``flush()`` output, so a late reply would be read as the next answer), the reply timeout uses a
-configurable adapter latency instead of the fixed 16 ms, waiting for bytes sleeps in ``select``
-instead of spinning a core, and the port is opened exclusively (``flock``, and ``TIOCEXCL`` on
-a real serial device) so that no second program talks on the same bus.
+Each servo family's package has its adapter in its ``sdk`` module (Dynamixel over
+``dynamixel_sdk``, Feetech over ``scservo_sdk``); the port under both
+is :mod:`armctl.servo.port` (exclusive, input flushed before every transmit, read ahead,
+configurable adapter latency).
 
 The adapters expose one small, uniform surface (send a request, receive one status packet as
-``(id, error, data)``, SDK result codes) that :class:`armctl.servo.driver.ServoBus` builds its
-contract on; the driver matches every status packet to its request.
+``(id, error, data)``, SDK result codes, what a status packet's error byte means) that
+:class:`armctl.servo.driver.ServoBus` builds its contract on; the driver matches every status
+packet to its request.
+
+Sync packets are built by the SDK once per address, length and servo ids and kept: a sync read
+is then sent as is, a sync write gets its data bytes and checksum patched in (the SDK builds it
+again whenever a patch is not enough, e.g. for Dynamixel byte stuffing). The packets are the
+SDK's own, byte for byte.
 """
 
 from __future__ import annotations
 
-import contextlib
-import inspect
-import os
-import select
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["IO_ERRORS", "Dxl1Sdk", "DxlSdk", "FeetechSdk", "Sdk", "Status"]
+from armctl.servo.codec import sum_checksum
+from armctl.servo.port import IO_ERRORS
+from armctl.servo_tables import Alarm
+
+__all__ = ["IO_ERRORS", "Sdk", "Status", "SyncTemplate"]
 
 #: ``(servo id, error byte, data bytes)`` of one status packet.
 Status = tuple[int, int, list[int]]
 
-
-def _io_errors() -> tuple[type[BaseException], ...]:
-    try:
-        import termios
-    except ImportError:  # not POSIX
-        return (OSError,)
-    return (OSError, termios.error)
+#: Kept sync packets per adapter (address, length and ids); more are built again each time.
+_KEEP = 64
 
 
-#: What pyserial raises for a failed read, write, flush or ioctl on an open port
-#: (``SerialException`` is an ``OSError``; ``tcflush`` raises ``termios.error``).
-IO_ERRORS = _io_errors()
+class _Recorder:
+    """Stands in for the port while an SDK builder runs, and keeps the packet it writes."""
+
+    is_using = False
+    tx_time_per_byte = 0.01
+
+    def __init__(self) -> None:
+        self.packet = b""
+
+    def clearPort(self) -> None:
+        """Nothing to clear."""
+
+    def writePort(self, packet: list[int]) -> int:
+        """Keep the packet instead of sending it."""
+        self.packet = bytes(packet)
+        return len(packet)
+
+    def setPacketTimeout(self, packet_length: int) -> None:
+        """No reply is awaited."""
+
+    def setPacketTimeoutMillis(self, msec: float) -> None:
+        """No reply is awaited."""
 
 
-def _is_pseudo_terminal(fd: int) -> bool:
-    """Whether ``fd`` is the slave side of a pseudo-terminal (Linux: majors 136-143)."""
-    try:
-        return 136 <= os.major(os.fstat(fd).st_rdev) <= 143
-    except (OSError, AttributeError):
-        return False
+def built_by_sdk(build: Callable[[Any], Any]) -> tuple[bytes, int]:
+    """The packet an SDK builder writes, without sending it.
 
+    Args:
+        build: Calls the SDK with the port it is given (e.g. ``lambda port:
+            pk.syncReadTx(port, ...)``) and returns the SDK's result code.
 
-def _exclusive(fd: int, on: bool) -> None:
-    """Set or clear the terminal's exclusive mode (further opens fail with EBUSY).
-
-    Not on pseudo-terminals: the simulator keeps its pty's slave side open, so the mode would
-    outlive a client that was killed.
+    Returns:
+        The packet's bytes (empty if the SDK refused to build it) and the result code.
     """
-    try:
-        import termios
-    except ImportError:
-        return
-    request = getattr(termios, "TIOCEXCL" if on else "TIOCNXCL", None)
-    if request is None or _is_pseudo_terminal(fd):
-        return
-    with contextlib.suppress(OSError):
-        import fcntl
-
-        fcntl.ioctl(fd, request)
+    recorder = _Recorder()
+    result = build(recorder)
+    return recorder.packet, int(result)
 
 
-def _port_class(base: type) -> type:
-    class Port(base):
-        latency_ms = 16.0
-        is_open: bool
+@dataclass(frozen=True)
+class SyncTemplate:
+    """A sync write packet as the SDK builds it with zero data, and where each servo's data goes.
 
-        def setupPort(self, cflag_baud: int) -> bool:
-            """Open the port as the SDK does, but exclusively (pyserial ``flock``)."""
-            import serial
+    Attributes:
+        packet: The packet's bytes.
+        offsets: Index of each servo's first data byte, in the order of the ids.
+    """
 
-            if self.is_open:
-                self.closePort()
-            self.ser = serial.Serial(port=self.port_name, baudrate=self.baudrate,
-                                     bytesize=serial.EIGHTBITS, timeout=0, exclusive=True)
-            self.is_open = True
-            _exclusive(self.ser.fileno(), True)
-            self.ser.reset_input_buffer()
-            self.tx_time_per_byte = (1000.0 / self.baudrate) * 10.0
-            return True
-
-        def closePort(self) -> None:
-            with contextlib.suppress(*IO_ERRORS, ValueError):
-                _exclusive(self.ser.fileno(), False)
-            with contextlib.suppress(*IO_ERRORS):
-                self.ser.close()
-            self.is_open = False
-
-        def clearPort(self) -> None:
-            self.ser.reset_input_buffer()
-
-        def setPacketTimeout(self, packet_length: int) -> None:
-            self.packet_start_time = self.getCurrentTime()
-            self.packet_timeout = (self.tx_time_per_byte * packet_length
-                                   + 2.0 * self.latency_ms + 2.0)
-
-        def readPort(self, length: int) -> Any:
-            data = self.ser.read(length)
-            if not data:
-                try:
-                    select.select([self.ser.fileno()], [], [], 0.0005)
-                except (OSError, ValueError, AttributeError):
-                    pass
-            return data
-
-    return Port
+    packet: bytes
+    offsets: tuple[int, ...]
 
 
 class Sdk(ABC):
@@ -119,26 +93,60 @@ class Sdk(ABC):
 
     A transaction is a ``send_*`` call (which also starts the reply timeout) followed by
     :meth:`receive` calls, one status packet each, until the caller has matched its replies.
+    The class attributes describe the protocol; the error-byte methods are class methods, so
+    the driver can ask them before the port is open.
     """
 
     SUCCESS = 0
     TIMEOUT = 0
     CORRUPT = 0
-    feetech = False
+    PORT_BUSY = 0
+    TX_FAIL = 0
+    NOT_AVAILABLE = 0
     has_sync_read = True
     has_reboot = True
+    has_broadcast_ping = True
+    #: Whether an access-type refusal is an access error (Dynamixel 2.0 error 7) rather than
+    #: another rejection.
+    access_errors = False
     #: Data bytes in a ping's status packet.
     ping_size = 0
     #: Bytes of a status packet around its data (header, id, length, error, checksum).
     status_overhead = 6
+    #: Index of the first servo id in a sync packet's parameters.
+    sync_ids_at = 7
+
+    _port_cls: Any
+    _sync_write_cls: Any
 
     def __init__(self, port_name: str, latency_ms: float):
         self.port: Any = self._port_cls(port_name)
         self.port.latency_ms = latency_ms
         self.pk: Any = None
+        self._sync_reads: dict[tuple[int, int, tuple[int, ...]], bytes] = {}
+        self._sync_writes: dict[tuple[int, int, tuple[int, ...]], SyncTemplate | None] = {}
 
-    _port_cls: Any
+    # ---- the error byte (per protocol) --------------------------------------------------------
+    @classmethod
+    @abstractmethod
+    def refusal(cls, error: int) -> tuple[str, bool] | None:
+        """What the servo refused, if anything.
 
+        Returns:
+            ``None``, or ``(text, access)`` where ``access`` marks an access-type refusal.
+        """
+
+    @classmethod
+    @abstractmethod
+    def alarms_in(cls, error: int) -> tuple[Alarm, ...] | None:
+        """The hardware alarms an error byte reports.
+
+        Returns:
+            The alarms (empty when none), or ``None`` when the byte only says that there is
+            one (its cause must be read from the servo's alarm register).
+        """
+
+    # ---- the port -----------------------------------------------------------------------------
     def open(self, baudrate: int) -> bool:
         """Open the port at ``baudrate``; False if the SDK refuses the rate."""
         self.port.baudrate = baudrate
@@ -158,12 +166,12 @@ class Sdk(ABC):
 
     def flush_input(self) -> None:
         """Discard unread input."""
-        self.port.ser.reset_input_buffer()
+        self.port.clearPort()
         self.port.is_using = False
 
     def waiting(self) -> int:
         """Bytes waiting in the input."""
-        return int(self.port.ser.in_waiting)
+        return int(self.port.unread()) + int(self.port.ser.in_waiting)
 
     def drain(self) -> list[Status]:
         """Read the complete status packets already waiting.
@@ -195,6 +203,7 @@ class Sdk(ABC):
     def status(self, rx: list[int]) -> Status:
         """``(id, error, data)`` of a received status packet."""
 
+    # ---- requests -----------------------------------------------------------------------------
     def send_read(self, sid: int, addr: int, n: int) -> int:
         """Send a READ of ``n`` bytes at ``addr``; returns the result code."""
         return int(self.pk.readTx(self.port, sid, addr, n))
@@ -214,17 +223,108 @@ class Sdk(ABC):
         """Send a REBOOT to one servo."""
 
     @abstractmethod
+    def _sync_read_tx(self, port: Any, addr: int, n: int, ids: list[int]) -> int:
+        """Let the SDK build and send a SYNC READ on ``port``."""
+
     def sync_read_tx(self, addr: int, n: int, ids: list[int]) -> int:
-        """Send a SYNC READ; returns the result code."""
+        """Send a SYNC READ (the SDK's packet, built once per address, length and ids).
 
-    def sync_write(self, addr: int, n: int, items: dict[int, bytes]) -> int:
-        """Send a SYNC WRITE (no reply); returns the result code."""
-        group = self._sync_write_cls(self.port, self.pk, addr, n)
-        for sid, data in items.items():
-            group.addParam(sid, list(data))
-        return int(group.txPacket())
+        Returns:
+            The result code.
+        """
+        key = (addr, n, tuple(ids))
+        packet = self._sync_reads.get(key)
+        if packet is None:
+            packet, built = built_by_sdk(
+                lambda port: self._sync_read_tx(port, addr, n, list(ids)))
+            if not packet:  # the SDK refused to build it (e.g. too long)
+                return built
+            if len(self._sync_reads) >= _KEEP:
+                self._sync_reads.clear()
+            self._sync_reads[key] = packet
+        result = self._transmit(packet)
+        if result == self.SUCCESS:  # the replies' timeout, as the SDK sets it
+            self.port.setPacketTimeout((self.status_overhead + n) * len(ids))
+        return result
 
-    _sync_write_cls: Any
+    def sync_write(self, addr: int, n: int, items: Mapping[int, bytes]) -> int:
+        """Send a SYNC WRITE of ``n`` bytes at ``addr`` (no reply); returns the result code.
+
+        The SDK's packet for these ids is kept with zero data; each call patches the data and
+        the checksum in, or has the SDK build the packet when that is not enough.
+        """
+        ids = tuple(items)
+        key = (addr, n, ids)
+        if key in self._sync_writes:
+            template = self._sync_writes[key]
+        else:
+            template = self._sync_template(addr, n, ids)
+            if len(self._sync_writes) >= _KEEP:
+                self._sync_writes.clear()
+            self._sync_writes[key] = template
+        packet: bytes | bytearray | None = None
+        if template is not None:
+            patched = bytearray(template.packet)
+            for at, data in zip(template.offsets, items.values(), strict=True):
+                if len(data) != n:
+                    break
+                patched[at:at + n] = data
+            else:
+                if self._seal(patched):
+                    packet = patched
+        if packet is None:
+            packet, built = self._sdk_sync_write(addr, n, items)
+            if not packet:  # the SDK refused to build it (no servos, too long)
+                return built
+        result = self._transmit(packet)
+        if result == self.SUCCESS:
+            self.port.is_using = False  # no reply: the port is free at once, as in the SDK
+        return result
+
+    def _sdk_sync_write(self, addr: int, n: int, items: Mapping[int, bytes]
+                        ) -> tuple[bytes, int]:
+        """The SYNC WRITE packet as the SDK's ``GroupSyncWrite`` builds it, and its result."""
+        def build(port: Any) -> Any:
+            group = self._sync_write_cls(port, self.pk, addr, n)
+            for sid, data in items.items():
+                group.addParam(sid, list(data))
+            return group.txPacket()
+        return built_by_sdk(build)
+
+    def _sync_template(self, addr: int, n: int, ids: tuple[int, ...]) -> SyncTemplate | None:
+        """The sync write packet with zero data, or ``None`` if it cannot be patched."""
+        packet, _ = self._sdk_sync_write(addr, n, dict.fromkeys(ids, bytes(n)))
+        offsets = tuple(self.sync_ids_at + k * (1 + n) + 1 for k in range(len(ids)))
+        if not ids or len(packet) != offsets[-1] + n + self._check_size or any(
+                packet[at - 1] != sid for at, sid in zip(offsets, ids, strict=True)):
+            return None
+        return SyncTemplate(packet, offsets)
+
+    #: Bytes of the checksum at the end of a packet.
+    _check_size = 1
+
+    @abstractmethod
+    def _seal(self, packet: bytearray) -> bool:
+        """Write the checksum of a patched packet into it.
+
+        Returns:
+            False when the packet needs more than its checksum (then the SDK builds it).
+        """
+
+    def _transmit(self, packet: bytes | bytearray) -> int:
+        """Send a packet as the SDK's ``txPacket`` does: the port must be free, input flushed.
+
+        Leaves the port in use (a reply is awaited) on success.
+        """
+        port = self.port
+        if port.is_using:
+            return self.PORT_BUSY
+        port.is_using = True
+        port.clearPort()
+        if port.writePort(packet) != len(packet):
+            port.is_using = False
+            return self.TX_FAIL
+        return self.SUCCESS
 
     @abstractmethod
     def broadcast_ping(self, window_ms: float) -> tuple[dict[int, tuple[int, int | None]], int]:
@@ -237,164 +337,16 @@ class Sdk(ABC):
         return result
 
 
-class DxlSdk(Sdk):
-    """Dynamixel Protocol 2.0 through ``dynamixel_sdk``."""
+def short_status(rx: list[int]) -> Status:
+    """``(id, error, data)`` of a Protocol 1.0-style status packet (Feetech, Dynamixel 1.0).
 
-    ping_size = 3  # model number (2), firmware (1)
-    status_overhead = 11
-
-    def __init__(self, port_name: str, latency_ms: float):
-        import dynamixel_sdk as dxl
-
-        self._dxl = dxl
-        self._port_cls = _port_class(dxl.PortHandler)
-        self._sync_write_cls = dxl.GroupSyncWrite
-        super().__init__(port_name, latency_ms)
-        self.pk = dxl.PacketHandler(2.0)
-        self.SUCCESS, self.TIMEOUT, self.CORRUPT = (dxl.COMM_SUCCESS, dxl.COMM_RX_TIMEOUT,
-                                                    dxl.COMM_RX_CORRUPT)
-        self._fast_arg = "fast_option" in inspect.signature(self.pk.syncReadTx).parameters
-        self._rx_arg = "fast_option" in inspect.signature(self.pk.rxPacket).parameters
-
-    def result_text(self, result: int) -> str:
-        """The SDK's text for a result code."""
-        return str(self.pk.getTxRxResult(result))
-
-    def receive(self) -> tuple[list[int], int]:
-        """The next status packet (byte stuffing removed)."""
-        if self._rx_arg:
-            rx, result = self.pk.rxPacket(self.port, False)
-        else:
-            rx, result = self.pk.rxPacket(self.port)
-        return rx, int(result)
-
-    def status(self, rx: list[int]) -> Status:
-        """``(id, error, data)``: LEN counts INST, ERR, the data and the CRC."""
-        n = max(0, (rx[5] | rx[6] << 8) - 4)
-        return rx[4], rx[8], list(rx[9:9 + n])
-
-    def send_ping(self, sid: int) -> int:
-        """PING (the status carries the model number and firmware)."""
-        txpacket = [0] * 10
-        txpacket[4], txpacket[5], txpacket[7] = sid, 3, 1
-        return self._send_packet(txpacket, self.ping_size)
-
-    def send_reboot(self, sid: int) -> int:
-        """REBOOT (0x08)."""
-        txpacket = [0] * 10
-        txpacket[4], txpacket[5], txpacket[7] = sid, 3, 0x08
-        return self._send_packet(txpacket, 0)
-
-    def sync_read_tx(self, addr: int, n: int, ids: list[int]) -> int:
-        """Send a SYNC READ."""
-        if self._fast_arg:
-            return int(self.pk.syncReadTx(self.port, addr, n, ids, len(ids), False))
-        return int(self.pk.syncReadTx(self.port, addr, n, ids, len(ids)))
-
-    def broadcast_ping(self, window_ms: float) -> tuple[dict[int, tuple[int, int | None]], int]:
-        """Broadcast ping through the SDK (it waits its own fixed window)."""
-        found, result = self.pk.broadcastPing(self.port)
-        return {int(k): (int(v[0]), int(v[1])) for k, v in found.items()}, result
-
-
-class Dxl1Sdk(DxlSdk):
-    """Dynamixel Protocol 1.0 through ``dynamixel_sdk``: no Sync Read, Reboot or broadcast ping."""
-
-    has_sync_read = False
-    has_reboot = False
-    ping_size = 0
-    status_overhead = 6
-
-    def __init__(self, port_name: str, latency_ms: float):
-        super().__init__(port_name, latency_ms)
-        self.pk = self._dxl.PacketHandler(1.0)
-        self._fast_arg = False
-        self._rx_arg = "fast_option" in inspect.signature(self.pk.rxPacket).parameters
-
-    def status(self, rx: list[int]) -> Status:
-        """``(id, error, data)``: LEN counts ERR, the data and the checksum."""
-        return _short_status(rx)
-
-    def send_ping(self, sid: int) -> int:
-        """PING (an empty status; the model number is read separately)."""
-        return self._send_packet([0, 0, sid, 2, 1, 0], 0)
-
-    def send_reboot(self, sid: int) -> int:
-        """Not in Protocol 1.0."""
-        return int(self._dxl.COMM_NOT_AVAILABLE)
-
-    def sync_read_tx(self, addr: int, n: int, ids: list[int]) -> int:
-        """Not in Protocol 1.0."""
-        return int(self._dxl.COMM_NOT_AVAILABLE)
-
-    def broadcast_ping(self, window_ms: float) -> tuple[dict[int, tuple[int, int | None]], int]:
-        """Not in Protocol 1.0 (scan pings ids one by one)."""
-        return {}, int(self._dxl.COMM_NOT_AVAILABLE)
-
-
-def _short_status(rx: list[int]) -> Status:
-    """``(id, error, data)`` of a Protocol 1.0-style status packet (Feetech, Dynamixel 1.0)."""
+    LEN counts ERR, the data and the checksum.
+    """
     n = max(0, rx[3] - 2)
     return rx[2], rx[4], list(rx[5:5 + n])
 
 
-class FeetechSdk(Sdk):
-    """Feetech STS (little-endian) through ``scservo_sdk`` (feetech-servo-sdk)."""
-
-    feetech = True
-
-    def __init__(self, port_name: str, latency_ms: float):
-        import scservo_sdk as scs
-
-        self._scs = scs
-        self._port_cls = _port_class(scs.PortHandler)
-        self._sync_write_cls = scs.GroupSyncWrite
-        super().__init__(port_name, latency_ms)
-        self.pk = scs.PacketHandler(0)  # 0 = little-endian (STS/SMS); a process-wide setting
-        self.SUCCESS, self.TIMEOUT, self.CORRUPT = (scs.COMM_SUCCESS, scs.COMM_RX_TIMEOUT,
-                                                    scs.COMM_RX_CORRUPT)
-
-    def result_text(self, result: int) -> str:
-        """The SDK's text for a result code."""
-        return str(self.pk.getTxRxResult(result))
-
-    def receive(self) -> tuple[list[int], int]:
-        """The next status packet."""
-        rx, result = self.pk.rxPacket(self.port)
-        return rx, int(result)
-
-    def status(self, rx: list[int]) -> Status:
-        """``(id, error, data)``: LEN counts ERR, the data and the checksum."""
-        return _short_status(rx)
-
-    def send_ping(self, sid: int) -> int:
-        """PING (an empty status; the model number is read separately)."""
-        return self._send_packet([0, 0, sid, 2, 1, 0], 0)
-
-    def send_reboot(self, sid: int) -> int:
-        """REBOOT (0x08, official INST.h); SDK-FT 1.0.0 has no helper, so build the packet."""
-        return self._send_packet([0, 0, sid, 2, 0x08, 0], 0)
-
-    def sync_read_tx(self, addr: int, n: int, ids: list[int]) -> int:
-        """Send a SYNC READ."""
-        return int(self.pk.syncReadTx(self.port, addr, n, ids, len(ids)))
-
-    def broadcast_ping(self, window_ms: float) -> tuple[dict[int, tuple[int, int | None]], int]:
-        """Broadcast ping: STS servos answer one after another; collect until the window ends.
-
-        The model numbers are left 0: the caller reads them with matched reads.
-        """
-        result = self.pk.txPacket(self.port, [0, 0, 0xFE, 2, 1, 0])
-        found: dict[int, tuple[int, int | None]] = {}
-        if result != self.SUCCESS:
-            self.port.is_using = False
-            return found, result
-        self.port.setPacketTimeoutMillis(window_ms)
-        while True:
-            rx, res = self.pk.rxPacket(self.port)
-            if res != self.SUCCESS:
-                break
-            found[int(rx[2])] = (0, None)
-            self.port.setPacketTimeoutMillis(window_ms)
-        self.port.is_using = False
-        return found, self.SUCCESS
+def protocol1_seal(packet: bytearray) -> bool:
+    """Protocol 1.0-style checksum, ``~sum(ID..last param) & 0xFF``, into the last byte."""
+    packet[-1] = sum_checksum(memoryview(packet)[2:-1])
+    return True

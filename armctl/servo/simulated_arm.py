@@ -13,6 +13,7 @@ from armctl.config.schema import ArmSpec
 from armctl.servo.calibration import Calibration
 from armctl.servo.mapping import JointMapping
 from armctl.servo.sim.bus import SimServoSpec, SimulatedBus
+from armctl.servo_tables import Register
 
 __all__ = ["simulated_bus", "simulated_bus_for"]
 
@@ -40,9 +41,9 @@ def simulated_bus_for(mapping: JointMapping, protocol: Protocol, baudrate: int, 
                       wire_timing: bool = False, clock: Clock | None = None) -> SimulatedBus:
     """A simulated bus with one servo per mapped joint, each at its joint's rest value.
 
-    Servos start as if configured before: multi-turn joints in extended position mode and the
+    Servos start as if configured before: multi-turn joints in extended position mode, the
     homing offsets the mapping assumes (calibrated, or moving the encoder wrap out of a joint's
-    travel) already stored.
+    travel) and a calibrated Drive Mode reverse bit already stored.
 
     Args:
         mapping: The joint mapping.
@@ -57,5 +58,13 @@ def simulated_bus_for(mapping: JointMapping, protocol: Protocol, baudrate: int, 
         servos.append(SimServoSpec(j.servo_id, j.model,
                                    t if j.multi_turn else t % j.ticks_per_rev,
                                    j.homing_offset, j.multi_turn))
-    return SimulatedBus(servos, protocol, baudrate, wire_timing=wire_timing, mapping=mapping,
-                        clock=clock)
+    sim = SimulatedBus(servos, protocol, baudrate, wire_timing=wire_timing, mapping=mapping,
+                       clock=clock)
+    for j, s in zip(mapping.joints, servos, strict=True):
+        if j.servo_reverse:  # a calibration made with Drive Mode reverse (LeRobot's Koch leader)
+            servo = sim.servo(j.servo_id)
+            servo.set(Register.DRIVE_MODE, servo.get(Register.DRIVE_MODE) | 1)
+            servo.set_present_position(s.position)
+            if servo.present_position() != s.position:  # a hand move counted unreversed
+                servo.set_present_position(2 * servo.present_position() - s.position)
+    return sim

@@ -5,8 +5,13 @@ can check servo models against it. Each family's module holds its tables and its
 :class:`Vendor` description (ticks, units, homing offset convention, EEPROM lock, operating
 modes, baud codes), which code above asks instead of testing for a vendor:
 
-* :mod:`.dynamixel`: Dynamixel X series (XL330-M288, XL430-W250, XM430-W350).
+* :mod:`.dynamixel`: Dynamixel X series (XL330-M077, XL330-M288, XL430-W250, XM430-W350,
+  XM540-W270).
 * :mod:`.feetech`: Feetech STS3215.
+
+A table lists every item of the maker's table (:attr:`ControlTable.items`, indexed items such
+as Indirect Data 5 included); :attr:`ControlTable.registers` holds the non-indexed ones by
+:class:`Register`.
 
 Negative values are two's complement on Dynamixel and sign-magnitude (one sign bit) on Feetech;
 :class:`Encoding` records which, per register.
@@ -22,6 +27,7 @@ from armctl.servo_tables.common import (
     ControlTable,
     Encoding,
     Family,
+    IndirectBlock,
     Register,
     RegisterSpec,
     Vendor,
@@ -38,6 +44,7 @@ __all__ = [
     "ControlTable",
     "Encoding",
     "Family",
+    "IndirectBlock",
     "Register",
     "RegisterSpec",
     "Vendor",

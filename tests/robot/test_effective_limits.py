@@ -331,7 +331,9 @@ def test_blocked_joint_fails_arrival_naming_joint_and_amount() -> None:
     assert exc.reason is StopReason.NOT_REACHED and exc.joint == "wrist_flex"
     text = str(exc)
     assert "servo 4" in text and f"{math.degrees(0.15 - blocked):.2f} deg short" in text
-    assert "blocks the joint" in text and "load reading 0.95" in text
+    assert "blocks the joint" in text
+    reading = float(text.split("present load: ")[1].split(" % of the servo's stall torque")[0])
+    assert 30 < reading <= 100  # the servo's position loop pushes against the obstacle
     assert measured[3] == pytest.approx(blocked, abs=TICK)
 
 

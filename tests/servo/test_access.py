@@ -30,7 +30,8 @@ def test_tables_key_addresses_and_model_numbers() -> None:
                                         Register.PRESENT_POSITION, Register.HARDWARE_ERROR,
                                         Register.HOMING_OFFSET)] == [64, 116, 132, 70, 20]
     assert {m: t.model_number for m, t in TABLES.items()} == {
-        "sts3215": 777, "xl330-m288": 1200, "xl430-w250": 1060, "xm430-w350": 1020}
+        "sts3215": 777, "xl330-m077": 1190, "xl330-m288": 1200, "xl430-w250": 1060,
+        "xm430-w350": 1020, "xm540-w270": 1120}
     sts = table_for("sts3215")
     assert [sts.spec(r).address for r in (Register.ID, Register.HOMING_OFFSET,
                                           Register.TORQUE_ENABLE, Register.GOAL_POSITION,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from armctl.servo.codec import crc16, decode, encode, feetech_checksum, stuff, unstuff
+from armctl.servo.codec import crc16, decode, encode, stuff, sum_checksum, unstuff
 from armctl.servo_tables import Register, table_for
 
 
@@ -35,8 +35,8 @@ def test_stuffing_round_trip_and_example() -> None:
 
 def test_feetech_checksum_golden() -> None:
     # SDK-FT 1.0.0 ping of id 1: FF FF 01 02 01 FB
-    assert feetech_checksum(bytes([1, 2, 1])) == 0xFB
-    assert feetech_checksum(bytes.fromhex("0104000903")) == 0xEE
+    assert sum_checksum(bytes([1, 2, 1])) == 0xFB
+    assert sum_checksum(bytes.fromhex("0104000903")) == 0xEE
 
 
 @pytest.mark.parametrize(("value", "bit", "raw"), [(-5, 15, 0x8005), (-5, 11, 0x805),

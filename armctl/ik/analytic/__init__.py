@@ -10,6 +10,11 @@ and kept only if it reaches the goal (:mod:`._polish`). :func:`ik_all` lists all
 :func:`solve` is the ``"analytic"`` entry of the solver registry. See docs/analytic-ik.md.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from armctl.ik.analytic.classify import (
     Decomposition,
     Family,
@@ -20,8 +25,24 @@ from armctl.ik.analytic.classify import (
     describe,
 )
 from armctl.ik.analytic.errors import NoDecompositionError
-from armctl.ik.analytic.solve_all import ACCEPT, IKSolutions, acceptance, ik_all
-from armctl.ik.analytic.solver import solve
+
+if TYPE_CHECKING:
+    from armctl.ik.analytic.solve_all import ACCEPT, IKSolutions, acceptance, ik_all
+    from armctl.ik.analytic.solver import solve
+
+#: The names imported on first use (the solvers import numba): classifying an arm stays light.
+_LAZY = {"ACCEPT": "solve_all", "IKSolutions": "solve_all", "acceptance": "solve_all",
+         "ik_all": "solve_all", "solve": "solver"}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "ACCEPT",

@@ -20,13 +20,15 @@ from armctl.ik.analytic._subproblems import (
     cross,
     dot,
     lin_trig,
-    mm,
+    mm_into,
     mmt,
-    mtm,
+    mtm_into,
     mtv,
     mv,
+    mv_into,
     norm,
     rot,
+    rot_into,
     rotv,
     sp1,
     trig_coeffs,
@@ -90,9 +92,20 @@ def pos3(h: np.ndarray, o: np.ndarray, w: np.ndarray, target: np.ndarray, ref: n
     t1 = np.empty(4)
     t3 = np.empty(4)
     n, singular = circle2(a, b, d, ref[0], ref[2], t1, t3)
+    rv = np.empty(3)
+    pv = np.empty(3)
     for i in range(n):
-        rv = rotv(h1, -t1[i], v) - p12
-        pv = p23 + rotv(h3, t3[i], p34)
+        # rv = rot(h1, -t1) v - p12, pv = p23 + rot(h3, t3) p34 (Rodrigues, no temporaries)
+        c1, s1 = math.cos(t1[i]), -math.sin(t1[i])
+        c3, s3 = math.cos(t3[i]), math.sin(t3[i])
+        k1 = (h1[0] * v[0] + h1[1] * v[1] + h1[2] * v[2]) * (1.0 - c1)
+        k3 = (h3[0] * p34[0] + h3[1] * p34[1] + h3[2] * p34[2]) * (1.0 - c3)
+        for r in range(3):
+            r1, r2 = (r + 1) % 3, (r + 2) % 3
+            rv[r] = (v[r] * c1 + (h1[r1] * v[r2] - h1[r2] * v[r1]) * s1 + h1[r] * k1
+                     - p12[r])
+            pv[r] = (p23[r] + p34[r] * c3 + (h3[r1] * p34[r2] - h3[r2] * p34[r1]) * s3
+                     + h3[r] * k3)
         t2, deg = sp1(h2, pv, rv, _DEG * lscale)
         if deg:
             t2 = ref[1]
@@ -122,21 +135,34 @@ def spherical_wrist(h: np.ndarray, o: np.ndarray, m: np.ndarray, goal: np.ndarra
     u6 = _perp(h6)
     cc, ss, cst = trig_coeffs(h4, h5, h6)
     t5s = np.empty(2)
+    # scratch for the loops (no allocation per candidate)
+    ra, rb, rc = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    r456, r5 = np.empty((3, 3)), np.empty((3, 3))
+    v456, v5, v6 = np.empty(3), np.empty(3), np.empty(3)
     n = 0
     for i in range(n3):
-        r123 = mm(mm(rot(h[0], arm[i, 0]), rot(h[1], arm[i, 1])), rot(h[2], arm[i, 2]))
-        r456 = mtm(r123, rg)
-        k5 = lin_trig(cc, ss, dot(h4, mv(r456, h6)) - cst, 1.0, t5s)
+        rot_into(h[0], arm[i, 0], ra)
+        rot_into(h[1], arm[i, 1], rb)
+        mm_into(ra, rb, rc)
+        rot_into(h[2], arm[i, 2], ra)
+        mm_into(rc, ra, rb)  # R1 R2 R3
+        mtm_into(rb, rg, r456)
+        mv_into(r456, h6, v456)
+        k5 = lin_trig(cc, ss, dot(h4, v456) - cst, 1.0, t5s)
         if k5 == -1:
             k5, t5s[0], singular = 1, ref[4], True
         for j in range(k5):
-            r5 = rot(h5, t5s[j])
-            t4, deg = sp1(h4, mv(r5, h6), mv(r456, h6), _DEG)
+            rot_into(h5, t5s[j], r5)
+            mv_into(r5, h6, v5)
+            t4, deg = sp1(h4, v5, v456, _DEG)
             if deg:
                 t4 = ref[3]
                 singular = True
-            r6 = mtm(r5, mtm(rot(h4, t4), r456))
-            t6, _ = sp1(h6, u6, mv(r6, u6), _DEG)
+            rot_into(h4, t4, ra)
+            mtm_into(ra, r456, rb)
+            mtm_into(r5, rb, rc)  # R6
+            mv_into(rc, u6, v6)
+            t6, _ = sp1(h6, u6, v6, _DEG)
             out[n, 0], out[n, 1], out[n, 2] = arm[i, 0], arm[i, 1], arm[i, 2]
             out[n, 3], out[n, 4], out[n, 5] = t4, t5s[j], t6
             n += 1
@@ -226,18 +252,41 @@ def three_parallel(h: np.ndarray, o: np.ndarray, m: np.ndarray, goal: np.ndarray
     t5s = np.empty(4)
     n2, singular = _parallel_pair(h, o, p, o[5] - o[4], e, h6, ref[0], ref[4], t1s, t5s)
     u2 = _perp(h2)
+    p21 = o[1] - o[0]
+    p45 = o[4] - o[3]
+    p56 = o[5] - o[4]
+    # scratch for the loop (no allocation per candidate)
+    r1, r5, r6 = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    ra, rb = np.empty((3, 3)), np.empty((3, 3))
+    va, vb, vc, q = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     n = 0
     for i in range(n2):
-        r1 = rot(h1, t1s[i])
-        r5 = rot(h5, t5s[i])
-        t6, deg = sp1(h6, mtv(rg, mv(r1, h2)), mtv(r5, h2), _DEG)
+        rot_into(h1, t1s[i], r1)
+        rot_into(h5, t5s[i], r5)
+        mv_into(r1, h2, va)
+        for r in range(3):
+            vb[r] = rg[0, r] * va[0] + rg[1, r] * va[1] + rg[2, r] * va[2]  # rg^T (r1 h2)
+            vc[r] = r5[0, r] * h2[0] + r5[1, r] * h2[1] + r5[2, r] * h2[2]  # r5^T h2
+        t6, deg = sp1(h6, vb, vc, _DEG)
         if deg:
             t6 = ref[5]
             singular = True
-        r6 = rot(h6, t6)
-        r234 = mmt(mmt(mtm(r1, rg), r6), r5)
-        t234, _ = sp1(h2, u2, mv(r234, u2), _DEG)
-        q = mtv(r1, p) - (o[1] - o[0]) - mv(r234, (o[4] - o[3]) + mv(r5, o[5] - o[4]))
+        rot_into(h6, t6, r6)
+        mtm_into(r1, rg, ra)
+        for r in range(3):  # r234 = r1^T rg r6^T r5^T
+            for c in range(3):
+                rb[r, c] = ra[r, 0] * r6[c, 0] + ra[r, 1] * r6[c, 1] + ra[r, 2] * r6[c, 2]
+        for r in range(3):
+            for c in range(3):
+                ra[r, c] = rb[r, 0] * r5[c, 0] + rb[r, 1] * r5[c, 1] + rb[r, 2] * r5[c, 2]
+        mv_into(ra, u2, va)
+        t234, _ = sp1(h2, u2, va, _DEG)
+        mv_into(r5, p56, vb)
+        for r in range(3):
+            vb[r] += p45[r]
+        mv_into(ra, vb, vc)
+        for r in range(3):
+            q[r] = (r1[0, r] * p[0] + r1[1, r] * p[1] + r1[2, r] * p[2]) - p21[r] - vc[r]
         k, s = _planar(h, o, q, t234, ref, out, n)
         singular = singular or s
         for j in range(n, n + k):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
@@ -19,7 +21,7 @@ def pose6(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray
           joints: np.ndarray, sign: np.ndarray, cols: np.ndarray, is_col: np.ndarray,
           q_ref: np.ndarray, goal: np.ndarray, jd: np.ndarray, fd: np.ndarray,
           paths: np.ndarray, f: int, tol: float, lower: np.ndarray,
-          upper: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+          upper: np.ndarray, variants: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
     """Every solution of a pose goal for a 6R chain of a family.
 
     Args:
@@ -41,6 +43,7 @@ def pose6(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray
         tol: Acceptance tolerance [m] and [rad].
         lower: Lower joint limits.
         upper: Upper joint limits.
+        variants: Every 2 pi variant as a row, or one row per solution (see :func:`assemble`).
 
     Returns:
         ``(q, within_limits, errors, singular)`` as :func:`assemble` plus the singular flag.
@@ -67,5 +70,126 @@ def pose6(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray
         n, singular = general6r(h, o, m, target, ref, raw)
     z = np.zeros(3)
     q, inside, errs, _ = assemble(raw, n, joints, sign, cols, is_col, q_ref, POSE, goal,
-                                  goal[:3, 3].copy(), z, z, jd, fd, paths, f, tol, lower, upper)
+                                  goal[:3, 3].copy(), z, z, jd, fd, paths, f, tol, lower, upper,
+                                  variants)
     return q, inside, errs, singular
+
+
+#: Status codes of :func:`pose6_distinct` (``flags >> 1``).
+OK, NOT_FINITE, NOT_ROTATION, NEEDS_CLEANUP, BAD_REF = 0, 1, 2, 3, 4
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def pose6_distinct(geo: np.ndarray, ints: np.ndarray, jd: np.ndarray, fd: np.ndarray,
+                   paths: np.ndarray, q_ref: np.ndarray, goal: np.ndarray,
+                   tol: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """The distinct solutions of a pose goal for a 6R chain of a family, in one call.
+
+    The goal is checked first (finite, a rotation matrix); then the family's closed form,
+    the polish (:func:`armctl.ik.analytic._polish.finalize`), and for each solution the 2 pi
+    variant of every solved joint inside its limits nearest to ``q_ref`` (the wrapped value
+    when it has none there). Solutions closer than 1e-6 rad on every joint (modulo 2 pi) are
+    one (:func:`armctl.ik.analytic._polish.finalize`); nearby distinct solutions are all kept.
+
+    Args:
+        geo: The chain's constants, flattened: axes ``h`` (18), points ``o`` (18), tool pose
+            ``m`` (16), signs (6), then the model's lower and upper joint limits (dof each).
+        ints: ``[code, inverted, frame index, number of solved joints, chain joints (6),
+            solved joints (k)]``.
+        jd: Packed joints of the model.
+        fd: Packed frames of the model.
+        paths: Joint paths of the model's frames.
+        q_ref: ``(dof,)`` reference configuration [rad].
+        goal: ``(4, 4)`` target pose (its last row is ignored).
+        tol: Acceptance tolerance [m] and [rad].
+
+    Returns:
+        ``(rows, inside, flags)``: ``rows`` ``(k, dof + 2)`` holds each solution's joints and
+        its position and rotation errors, nearest to ``q_ref`` first; ``inside`` ``(k,)``
+        whether each lies inside the limits; ``flags`` is ``2 * status + singular``
+        (status :data:`OK`, :data:`NOT_FINITE`,
+        :data:`NOT_ROTATION`, :data:`NEEDS_CLEANUP` for a rotation that is off by more
+        than round-off and must be orthonormalised first, :data:`BAD_REF` for a ``q_ref``
+        with NaN or inf).
+    """
+    dof = q_ref.shape[0]
+    status = OK
+    for j in range(dof):
+        if not math.isfinite(q_ref[j]):
+            status = BAD_REF
+    for i in range(3):
+        for j in range(4):
+            if not math.isfinite(goal[i, j]):
+                status = NOT_FINITE
+    if status != OK:
+        return np.empty((0, dof + 2)), np.empty(0, dtype=np.bool_), 2 * status
+    dev = 0.0
+    for i in range(3):
+        for j in range(3):
+            s = goal[i, 0] * goal[j, 0] + goal[i, 1] * goal[j, 1] + goal[i, 2] * goal[j, 2]
+            dev = max(dev, abs(s - (1.0 if i == j else 0.0)))
+    det = (goal[0, 0] * (goal[1, 1] * goal[2, 2] - goal[1, 2] * goal[2, 1])
+           - goal[0, 1] * (goal[1, 0] * goal[2, 2] - goal[1, 2] * goal[2, 0])
+           + goal[0, 2] * (goal[1, 0] * goal[2, 1] - goal[1, 1] * goal[2, 0]))
+    if dev > 1e-6 or det < 0.0:
+        status = NOT_ROTATION
+    elif dev > 1e-14:
+        status = NEEDS_CLEANUP
+    if status != OK:
+        return np.empty((0, dof + 2)), np.empty(0, dtype=np.bool_), 2 * status
+    h = np.empty((6, 3))
+    o = np.empty((6, 3))
+    m = np.empty((4, 4))
+    for i in range(6):
+        for j in range(3):
+            h[i, j] = geo[3 * i + j]
+            o[i, j] = geo[18 + 3 * i + j]
+    for i in range(4):
+        for j in range(4):
+            m[i, j] = geo[36 + 4 * i + j]
+    sign = geo[52:58]
+    lower = geo[58:58 + dof]
+    upper = geo[58 + dof:58 + 2 * dof]
+    code, inverted, f, k = ints[0], ints[1] != 0, ints[2], ints[3]
+    joints = ints[4:10]
+    cols = ints[10:10 + k]
+    target = np.empty((4, 4))
+    for i in range(4):
+        for j in range(4):
+            target[i, j] = goal[i, j] if i < 3 else (1.0 if j == 3 else 0.0)
+    if inverted:
+        for i in range(3):
+            for j in range(3):
+                target[i, j] = goal[j, i]
+        for i in range(3):
+            target[i, 3] = -(goal[0, i] * goal[0, 3] + goal[1, i] * goal[1, 3]
+                             + goal[2, i] * goal[2, 3])
+    ref = np.empty(6)
+    for c in range(6):
+        ref[c] = sign[c] * q_ref[joints[c]]
+    raw = np.empty((CAPACITY, 7))
+    if code == SPHERICAL:
+        n, singular = spherical_wrist(h, o, m, target, ref, raw)
+    elif code == PARALLEL:
+        n, singular = three_parallel(h, o, m, target, ref, raw)
+    elif code == PAIR:
+        n, singular = one_pair(h, o, m, target, ref, raw)
+    else:
+        n, singular = general6r(h, o, m, target, ref, raw)
+    is_col = np.zeros(dof, dtype=np.bool_)
+    for c in range(k):
+        is_col[cols[c]] = True
+    p = np.empty(3)
+    for i in range(3):
+        p[i] = goal[i, 3]
+    z = np.zeros(3)
+    q, inside, errs, _ = assemble(raw, n, joints, sign, cols, is_col, q_ref, POSE, goal, p, z, z,
+                                  jd, fd, paths, f, tol, lower, upper, False)
+    ns = q.shape[0]
+    out = np.empty((ns, dof + 2))
+    for r in range(ns):
+        for j in range(dof):
+            out[r, j] = q[r, j]
+        out[r, dof] = errs[r, 0]
+        out[r, dof + 1] = errs[r, 1]
+    return out, inside, 2 * OK + (1 if singular else 0)

@@ -14,12 +14,17 @@ import numba as nb
 import numpy as np
 
 from armctl.ik.goals import GoalKind
-from armctl.kinematics._kernels import fk_jacobian_into
+from armctl.kinematics._kernels import fk_into, fk_jacobian_into
 
 #: The goal kinds with a closed form, as the kernels see them (compile-time constants).
 POSE = int(GoalKind.POSE)
 DIRECTION = int(GoalKind.DIRECTION)
 POSITION = int(GoalKind.POSITION)
+#: Errors [m], [rad] below which the polish stops: a few units of round-off of the FK.
+_ROUNDOFF = 1e-14
+#: Summed error [m + rad] below which a step that fails to reduce it ends the polish (the
+#: remaining error is round-off; raising the damping would only repeat the FK).
+_SETTLED = 1e-12
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -30,16 +35,27 @@ def _residual(pose: np.ndarray, kind: int, goal: np.ndarray, p: np.ndarray, d: n
         e[i] = p[i] - pose[i, 3]
     ep = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
     if kind == POSE:
-        # D = Rg R^T; e_rot = vee(D - D^T) / 2 (= sin(angle) * axis)
-        dm = goal[:3, :3].copy() @ pose[:3, :3].T.copy()
-        e[3] = 0.5 * (dm[2, 1] - dm[1, 2])
-        e[4] = 0.5 * (dm[0, 2] - dm[2, 0])
-        e[5] = 0.5 * (dm[1, 0] - dm[0, 1])
+        # D = Rg R^T; e_rot = vee(D - D^T) / 2 (= sin(angle) * axis); written out (a 3x3
+        # product through BLAS costs more than the whole forward kinematics)
+        d00 = goal[0, 0] * pose[0, 0] + goal[0, 1] * pose[0, 1] + goal[0, 2] * pose[0, 2]
+        d11 = goal[1, 0] * pose[1, 0] + goal[1, 1] * pose[1, 1] + goal[1, 2] * pose[1, 2]
+        d22 = goal[2, 0] * pose[2, 0] + goal[2, 1] * pose[2, 1] + goal[2, 2] * pose[2, 2]
+        d01 = goal[0, 0] * pose[1, 0] + goal[0, 1] * pose[1, 1] + goal[0, 2] * pose[1, 2]
+        d10 = goal[1, 0] * pose[0, 0] + goal[1, 1] * pose[0, 1] + goal[1, 2] * pose[0, 2]
+        d02 = goal[0, 0] * pose[2, 0] + goal[0, 1] * pose[2, 1] + goal[0, 2] * pose[2, 2]
+        d20 = goal[2, 0] * pose[0, 0] + goal[2, 1] * pose[0, 1] + goal[2, 2] * pose[0, 2]
+        d12 = goal[1, 0] * pose[2, 0] + goal[1, 1] * pose[2, 1] + goal[1, 2] * pose[2, 2]
+        d21 = goal[2, 0] * pose[1, 0] + goal[2, 1] * pose[1, 1] + goal[2, 2] * pose[1, 2]
+        e[3] = 0.5 * (d21 - d12)
+        e[4] = 0.5 * (d02 - d20)
+        e[5] = 0.5 * (d10 - d01)
         s = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
-        c = 0.5 * (dm[0, 0] + dm[1, 1] + dm[2, 2] - 1.0)
+        c = 0.5 * (d00 + d11 + d22 - 1.0)
         return ep, math.atan2(s, c)
     if kind == DIRECTION:
-        aw = pose[:3, :3].copy() @ a
+        aw = np.empty(3)
+        for i in range(3):
+            aw[i] = pose[i, 0] * a[0] + pose[i, 1] * a[1] + pose[i, 2] * a[2]
         e[3] = aw[1] * d[2] - aw[2] * d[1]
         e[4] = aw[2] * d[0] - aw[0] * d[2]
         e[5] = aw[0] * d[1] - aw[1] * d[0]
@@ -106,7 +122,7 @@ def polish(q: np.ndarray, cols: np.ndarray, kind: int, goal: np.ndarray, p: np.n
     damping = 1e-13
     fresh = True
     for _ in range(iters):
-        if ep < 2e-15 and er < 2e-15:  # at the FK round-off: nothing left to gain
+        if ep < _ROUNDOFF and er < _ROUNDOFF:  # at the FK round-off: nothing left to gain
             break
         if fresh:  # linearise at the current iterate
             js = np.zeros((6, k))
@@ -120,8 +136,16 @@ def polish(q: np.ndarray, cols: np.ndarray, kind: int, goal: np.ndarray, p: np.n
                     t = w[0] * aw[0] + w[1] * aw[1] + w[2] * aw[2]
                     for r in range(3):
                         js[3 + r, c] = w[r] - t * aw[r]
-            jtj0 = js.T @ js
-            grad = js.T @ e
+            for c in range(k):
+                g = 0.0
+                for r in range(6):
+                    g += js[r, c] * e[r]
+                grad[c] = g
+                for c2 in range(k):
+                    t = 0.0
+                    for r in range(6):
+                        t += js[r, c] * js[r, c2]
+                    jtj0[c, c2] = t
             scale = np.trace(jtj0) + 1e-300
         jtj = jtj0.copy()
         for c in range(k):
@@ -143,7 +167,7 @@ def polish(q: np.ndarray, cols: np.ndarray, kind: int, goal: np.ndarray, p: np.n
         else:
             damping *= 100.0
             fresh = False
-            if damping > 1e3:
+            if damping > 1e3 or best < _SETTLED:  # a failed step this close: at round-off
                 break
     return ep, er
 
@@ -176,6 +200,8 @@ def finalize(cands: np.ndarray, count: int, cols: np.ndarray, kind: int, goal: n
         The number of solutions.
     """
     m = 0
+    pose = np.empty((4, 4))
+    e = np.empty(6)
     for i in range(count):
         q = cands[i]
         ok = True
@@ -184,7 +210,12 @@ def finalize(cands: np.ndarray, count: int, cols: np.ndarray, kind: int, goal: n
                 ok = False
         if not ok:
             continue
-        ep, er = polish(q, cols, kind, goal, p, d, a, jd, fd, paths, f, 20)
+        # most closed-form candidates are exact to round-off already: a forward kinematics
+        # (no Jacobian) shows it, and the polish is skipped
+        fk_into(q, jd, fd, paths, f, pose)
+        ep, er = _residual(pose, kind, goal, p, d, a, e)
+        if not (ep < _ROUNDOFF and er < _ROUNDOFF):
+            ep, er = polish(q, cols, kind, goal, p, d, a, jd, fd, paths, f, 20)
         if not (ep <= tol and er <= tol):
             continue
         for c in range(cols.shape[0]):
@@ -262,12 +293,40 @@ def expand(sols: np.ndarray, is_col: np.ndarray, lower: np.ndarray,
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def nearest_variants(sols: np.ndarray, is_col: np.ndarray, q_ref: np.ndarray, lower: np.ndarray,
+                     upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One row per solution, each solved joint at its 2 pi variant nearest to ``q_ref``.
+
+    Only variants inside the joint's limits count (a joint with none there keeps its value). The
+    distance to ``q_ref`` is a sum over the joints, so the joint-wise choice is the row's variant
+    inside the limits nearest to it.
+
+    Returns:
+        ``(rows (m, dof), source (m,))`` as :func:`expand`.
+    """
+    m, n = sols.shape
+    two_pi = 2.0 * math.pi
+    rows = sols.copy()
+    for i in range(m):
+        for j in range(n):
+            if is_col[j] and math.isfinite(lower[j]) and math.isfinite(upper[j]):
+                v = sols[i, j]
+                a = math.ceil((lower[j] - 1e-9 - v) / two_pi)
+                b = math.floor((upper[j] + 1e-9 - v) / two_pi)
+                if b >= a:
+                    k = math.floor((q_ref[j] - v) / two_pi + 0.5)
+                    rows[i, j] = v + two_pi * min(max(k, a), b)
+    return rows, np.arange(m)
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def assemble(raw: np.ndarray, count: int, joints: np.ndarray, sign: np.ndarray,
              cols: np.ndarray, is_col: np.ndarray, q_ref: np.ndarray, kind: int,
              goal: np.ndarray, p: np.ndarray, d: np.ndarray, a: np.ndarray, jd: np.ndarray,
              fd: np.ndarray, paths: np.ndarray, f: int, tol: float, lower: np.ndarray,
-             upper: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """From closed-form candidates to the sorted list of exact solutions and their variants.
+             upper: np.ndarray, variants: bool
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """From closed-form candidates to the sorted list of exact solutions (or their variants).
 
     Args:
         raw: ``(>=count, >=len(joints))`` candidates in solver-chain order.
@@ -289,6 +348,8 @@ def assemble(raw: np.ndarray, count: int, joints: np.ndarray, sign: np.ndarray,
         tol: Acceptance tolerance [m] and [rad].
         lower: Lower joint limits.
         upper: Upper joint limits.
+        variants: Every 2 pi variant inside the limits as a row (:func:`expand`), or one row
+            per solution (:func:`nearest_variants`).
 
     Returns:
         ``(q (K, dof), within_limits (K,), errors (K, 2), distances (K,))`` sorted by distance.
@@ -304,7 +365,10 @@ def assemble(raw: np.ndarray, count: int, joints: np.ndarray, sign: np.ndarray,
     sols = np.empty((max(count, 1), dof))
     errs = np.empty((max(count, 1), 2))
     m = finalize(cands, count, cols, kind, goal, p, d, a, jd, fd, paths, f, tol, sols, errs)
-    rows, src = expand(sols[:m], is_col, lower, upper)
+    if variants:
+        rows, src = expand(sols[:m], is_col, lower, upper)
+    else:
+        rows, src = nearest_variants(sols[:m], is_col, q_ref, lower, upper)
     k = rows.shape[0]
     dist = np.empty(k)
     for i in range(k):

@@ -118,6 +118,47 @@ def rot(k: np.ndarray, t: float) -> np.ndarray:
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def rot_into(k: np.ndarray, t: float, r: np.ndarray) -> None:
+    """:func:`rot` written into ``r`` (no allocation, for the hot loops)."""
+    c = math.cos(t)
+    s = math.sin(t)
+    v = 1.0 - c
+    x, y, z = k[0], k[1], k[2]
+    r[0, 0] = c + x * x * v
+    r[0, 1] = x * y * v - z * s
+    r[0, 2] = x * z * v + y * s
+    r[1, 0] = y * x * v + z * s
+    r[1, 1] = c + y * y * v
+    r[1, 2] = y * z * v - x * s
+    r[2, 0] = z * x * v - y * s
+    r[2, 1] = z * y * v + x * s
+    r[2, 2] = c + z * z * v
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def mm_into(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """``out = a @ b`` for 3x3 matrices (``out`` distinct from both)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def mtm_into(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """``out = a.T @ b`` for 3x3 matrices (``out`` distinct from both)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[0, i] * b[0, j] + a[1, i] * b[1, j] + a[2, i] * b[2, j]
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def mv_into(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
+    """``out = a @ x`` for a 3x3 matrix and a 3-vector (``out`` distinct from ``x``)."""
+    for i in range(3):
+        out[i] = a[i, 0] * x[0] + a[i, 1] * x[1] + a[i, 2] * x[2]
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def rotv(k: np.ndarray, t: float, x: np.ndarray) -> np.ndarray:
     """``rot(k, t) @ x`` without forming the matrix."""
     c = math.cos(t)
@@ -133,11 +174,11 @@ def rotv(k: np.ndarray, t: float, x: np.ndarray) -> np.ndarray:
 @nb.njit(cache=True, nogil=True, error_model="numpy")
 def trig_coeffs(h: np.ndarray, k: np.ndarray, x: np.ndarray) -> tuple[float, float, float]:
     """``h . rot(k, t) x = cc cos t + ss sin t + cst``; returns ``(cc, ss, cst)``."""
-    kx = dot(k, x)
-    kc = cross(k, x)
-    cst = kx * dot(h, k)
-    cc = dot(h, x) - cst
-    ss = dot(h, kc)
+    kx = k[0] * x[0] + k[1] * x[1] + k[2] * x[2]
+    cst = kx * (h[0] * k[0] + h[1] * k[1] + h[2] * k[2])
+    cc = h[0] * x[0] + h[1] * x[1] + h[2] * x[2] - cst
+    ss = (h[0] * (k[1] * x[2] - k[2] * x[1]) + h[1] * (k[2] * x[0] - k[0] * x[2])
+          + h[2] * (k[0] * x[1] - k[1] * x[0]))  # h . (k x x)
     return cc, ss, cst
 
 
@@ -156,16 +197,16 @@ def sp1(k: np.ndarray, p: np.ndarray, q: np.ndarray, tol: float) -> tuple[float,
         ``(t, degenerate)``; ``degenerate`` when ``p`` or ``q`` lies (within ``tol``) on the
         axis, so any angle does equally well.
     """
-    kp = dot(k, p)
-    kq = dot(k, q)
-    pp = np.empty(3)
-    qp = np.empty(3)
-    for i in range(3):
-        pp[i] = p[i] - kp * k[i]
-        qp[i] = q[i] - kq * k[i]
-    if norm(pp) <= tol or norm(qp) <= tol:
+    kp = k[0] * p[0] + k[1] * p[1] + k[2] * p[2]
+    kq = k[0] * q[0] + k[1] * q[1] + k[2] * q[2]
+    p0, p1, p2 = p[0] - kp * k[0], p[1] - kp * k[1], p[2] - kp * k[2]
+    q0, q1, q2 = q[0] - kq * k[0], q[1] - kq * k[1], q[2] - kq * k[2]
+    if (math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) <= tol
+            or math.sqrt(q0 * q0 + q1 * q1 + q2 * q2) <= tol):
         return 0.0, True
-    return math.atan2(dot(k, cross(pp, qp)), dot(pp, qp)), False
+    # k . (pp x qp) and pp . qp, without temporaries
+    s = (k[0] * (p1 * q2 - p2 * q1) + k[1] * (p2 * q0 - p0 * q2) + k[2] * (p0 * q1 - p1 * q0))
+    return math.atan2(s, p0 * q0 + p1 * q1 + p2 * q2), False
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
@@ -312,6 +353,54 @@ def _left_null(a: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def _reduce_rank1(G: np.ndarray, g0: float, g1: float, t1: np.ndarray, t2: np.ndarray) -> int:
+    """``|g - G x1| = 1`` with ``x1 = [cos t1, sin t1]`` when ``G`` has rank one.
+
+    Then ``G = u w^T`` and ``G x1 = u s`` with ``s = w . x1``: a quadratic in ``s`` and, for
+    each root, ``w . x1 = s`` by :func:`lin_trig` (the decoupled arms: UR-type wrists, shoulders
+    whose second and third axes are parallel). The quartic of :func:`trig2` degenerates there
+    (a root runs off to infinity) and its iteration is slow, so this exact form is used instead.
+
+    Returns:
+        The number of pairs written to ``t1``, ``t2``, or -1 when ``G`` is not of rank one (or
+        ``w`` vanishes): the caller then takes the general path.
+    """
+    n0 = G[0, 0] * G[0, 0] + G[0, 1] * G[0, 1]
+    n1 = G[1, 0] * G[1, 0] + G[1, 1] * G[1, 1]
+    big = max(n0, n1)
+    if big <= 1e-18 or abs(G[0, 0] * G[1, 1] - G[0, 1] * G[1, 0]) > 1e-13 * big:
+        return -1
+    r = 0 if n0 >= n1 else 1
+    w0, w1 = G[r, 0], G[r, 1]
+    alpha = (G[1 - r, 0] * w0 + G[1 - r, 1] * w1) / big  # the other row is alpha * w
+    u0, u1 = (1.0, alpha) if r == 0 else (alpha, 1.0)
+    uu = u0 * u0 + u1 * u1
+    ug = u0 * g0 + u1 * g1
+    gg = g0 * g0 + g1 * g1
+    disc = ug * ug - uu * (gg - 1.0)
+    if disc < -ROOT_TOL * (ug * ug + uu * (gg + 1.0)):
+        return 0
+    root = math.sqrt(max(disc, 0.0))
+    ss = np.empty(2)
+    ss[0] = (ug + root) / uu
+    ss[1] = (ug - root) / uu
+    ns = 1 if root == 0.0 else 2
+    wn = math.sqrt(big)
+    sol = np.empty(2)
+    n = 0
+    for i in range(ns):
+        k = lin_trig(w0, w1, ss[i], wn, sol)
+        if k == -1:
+            return -1
+        for j in range(k):
+            c, s = math.cos(sol[j]), math.sin(sol[j])
+            t1[n] = sol[j]
+            t2[n] = math.atan2(g1 - G[1, 0] * c - G[1, 1] * s, g0 - G[0, 0] * c - G[0, 1] * s)
+            n += 1
+    return n
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def _reduce(a: np.ndarray, b: np.ndarray, d: np.ndarray, ref: float,
             t1: np.ndarray, t2: np.ndarray) -> tuple[int, bool]:
     """``circle2`` when ``b`` is invertible: ``x2 = g - G x1`` and ``|x2| = 1``.
@@ -331,6 +420,9 @@ def _reduce(a: np.ndarray, b: np.ndarray, d: np.ndarray, ref: float,
     q01 = G[0, 0] * G[0, 1] + G[1, 0] * G[1, 1]
     gg0 = G[0, 0] * g0 + G[1, 0] * g1
     gg1 = G[0, 1] * g0 + G[1, 1] * g1
+    n = _reduce_rank1(G, g0, g1, t1, t2)
+    if n >= 0:
+        return n, False
     roots = np.empty(4)
     n = trig2(g0 * g0 + g1 * g1 - 1.0 + 0.5 * (q00 + q11), -2.0 * gg0, -2.0 * gg1,
               0.5 * (q00 - q11), q01, roots)

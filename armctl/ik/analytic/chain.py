@@ -107,5 +107,7 @@ def chain_of(model: KinematicModel, frame: str | None = None) -> Chain:
         h[k] = t[:3, :3] @ tree.joint_axis(j)
         h[k] /= np.linalg.norm(h[k])
         o[k] = t[:3, 3]
-    m = model.fk(np.zeros(model.dof), frame)
+    f = model.frame_index(frame)  # the frame at zero: no compiled kernel needed
+    anchor = int(tree.anchor[f])
+    m = (np.eye(4) if anchor < 0 else world[anchor]) @ tree.frame_offset(f)
     return Chain(tuple(joints), _ro(h), _ro(o), _ro(m), _ro(np.ones(len(joints))))

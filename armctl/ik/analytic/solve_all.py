@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -9,7 +10,18 @@ import numpy.typing as npt
 
 from armctl.errors import InputError
 from armctl.ik.analytic import _families as F
-from armctl.ik.analytic._pipeline import GENERAL, PAIR, PARALLEL, SPHERICAL, pose6
+from armctl.ik.analytic._pipeline import (
+    BAD_REF,
+    GENERAL,
+    NEEDS_CLEANUP,
+    NOT_FINITE,
+    OK,
+    PAIR,
+    PARALLEL,
+    SPHERICAL,
+    pose6,
+    pose6_distinct,
+)
 from armctl.ik.analytic._polish import assemble, inspect_pose
 from armctl.ik.analytic._search import CAPACITY, one_pair
 from armctl.ik.analytic.chain import Chain, screw
@@ -21,7 +33,7 @@ from armctl.ik.analytic.classify import (
     decomposition,
 )
 from armctl.ik.analytic.errors import NoDecompositionError
-from armctl.ik.goals import Goal
+from armctl.ik.goals import Goal, PoseGoal
 from armctl.kinematics.model import KinematicModel
 from armctl.spatial import orthonormalize, transform_inverse
 from armctl.typing import Array
@@ -251,8 +263,8 @@ def _hold(dec: Decomposition, chain: Chain, q_ref: Array, target: Array) -> tupl
 
 def ik_all(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLike | None = None,
            frame: str | None = None, *, tol: float = ACCEPT,
-           free_values: npt.ArrayLike | None = None) -> IKSolutions:
-    """Every solution of a goal, in closed form, polished to machine precision.
+           free_values: npt.ArrayLike | None = None, variants: bool = False) -> IKSolutions:
+    """Every distinct solution of a goal, in closed form, polished to machine precision.
 
     Args:
         model: The arm.
@@ -266,6 +278,11 @@ def ik_all(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLi
         free_values: Values [rad] at which to hold the one free joint of a redundant arm (the
             Panda's joint 7), each solved in turn; the solutions of all of them are listed
             together. ``None``: the joint's ``q_ref`` value.
+        variants: List every 2 pi variant of each solution that fits in the joint ranges as a
+            row of its own. By default each solution is one row: its variant inside the
+            limits nearest to ``q_ref``. Solutions closer than :data:`TWINS` are still listed
+            apart (a nearly singular goal has such pairs); :meth:`IKSolutions.distinct` merges
+            them for display.
 
     Returns:
         The solutions (possibly none: the goal is out of reach).
@@ -274,11 +291,15 @@ def ik_all(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLi
         NoDecompositionError: If the chain or the goal type has no closed form here.
         InputError: For a bad goal or ``q_ref``.
     """
+    if free_values is None and not variants:
+        fast = _fast(model, pose, q_ref, frame, tol)
+        if fast is not None:
+            return fast
     goal = as_target(pose, frame)
     dec = decomposition(model, goal.frame, goal.kind)
     ref = model.middle() if q_ref is None else np.array(model.as_q(q_ref, "q_ref"))
     if free_values is None:
-        q, inside, errs, singular = _solve(model, dec, goal, ref, tol)
+        q, inside, errs, singular = _solve(model, dec, goal, ref, tol, variants)
     else:
         if len(dec.free) != 1:
             raise InputError(f"free_values needs exactly one free joint; {dec.label} holds "
@@ -287,7 +308,7 @@ def ik_all(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLi
         for v in np.atleast_1d(np.asarray(free_values, dtype=float)):
             held = ref.copy()
             held[dec.free[0]] = v
-            parts.append(_solve(model, dec, goal, held, tol))
+            parts.append(_solve(model, dec, goal, held, tol, variants))
         q = np.concatenate([p[0] for p in parts])
         order = np.argsort(np.linalg.norm(q - ref, axis=1), kind="stable")
         q = q[order]
@@ -299,7 +320,7 @@ def ik_all(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLi
 
 
 def _solve(model: KinematicModel, dec: Decomposition, goal: Target, ref: Array,
-           tol: float) -> tuple[Array, npt.NDArray[np.bool_], Array, bool]:
+           tol: float, variants: bool) -> tuple[Array, npt.NDArray[np.bool_], Array, bool]:
     """Closed form, polish, variants and ordering for one reference configuration."""
     tree = model.tree
     if goal.kind is GoalKind.POSE and not dec.free:  # the hot path: one compiled call
@@ -307,11 +328,115 @@ def _solve(model: KinematicModel, dec: Decomposition, goal: Target, ref: Array,
         c = dec.chain
         return pose6(code, dec.inverted, c.h, c.o, c.m, c.index, c.sign, dec.columns, dec.mask,
                      ref, goal.pose, tree.joints, tree.frames, tree.paths,
-                     model.frame_index(goal.frame), tol, model.lower, model.upper)
+                     model.frame_index(goal.frame), tol, model.lower, model.upper, variants)
     raw = np.empty((CAPACITY, 7))
     n, singular, chain = _run(dec, goal, ref, raw)
     q, inside, errs, _ = assemble(raw, n, chain.index, chain.sign, dec.columns,
                                   dec.mask, ref, int(goal.kind), goal.pose, goal.position,
                                   goal.direction, goal.axis, tree.joints, tree.frames, tree.paths,
-                                  model.frame_index(goal.frame), tol, model.lower, model.upper)
+                                  model.frame_index(goal.frame), tol, model.lower, model.upper,
+                                  variants)
     return q, inside, errs, bool(singular)
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What the one-call path of :func:`ik_all` needs of an arm and frame, computed once.
+
+    Attributes:
+        geo: The chain's constants for :func:`pose6_distinct` (``None``: no one-call path:
+            no pose decomposition, or joints held at ``q_ref``).
+        ints: Its integer constants.
+        middle: The middle of the joint ranges (the default ``q_ref``) [rad].
+        label: The decomposition's label.
+        free: Names of the held joints.
+        model: The model's packed joints, frames and frame paths (its FK kernels' input).
+    """
+
+    geo: Array | None
+    ints: npt.NDArray[np.int64]
+    middle: Array
+    label: str
+    free: tuple[str, ...]
+    model: tuple[Array, Array, npt.NDArray[np.int64]]
+
+
+#: Plans by ``(id(model), frame)``; an entry leaves with its model (``weakref.finalize``).
+_PLANS: dict[tuple[int, str | None], _Plan] = {}
+
+
+def _plan(model: KinematicModel, frame: str | None) -> _Plan:
+    """The cached :class:`_Plan` of ``model`` for ``frame`` (raises for an unknown frame)."""
+    key = (id(model), frame)
+    plan = _PLANS.get(key)
+    if plan is not None:
+        return plan
+    f = model.frame_index(frame)
+    geo: Array | None = None
+    ints = np.zeros(0, dtype=np.int64)
+    label = ""
+    free: tuple[str, ...] = ()
+    try:
+        dec = decomposition(model, frame, GoalKind.POSE)
+    except NoDecompositionError:
+        dec = None
+    if dec is not None:
+        label, free = dec.label, dec.free_names
+        c = dec.chain
+        if not dec.free and c.n == 6:
+            geo = np.concatenate([np.ravel(c.h), np.ravel(c.o), np.ravel(c.m),
+                                  np.asarray(c.sign, dtype=float), model.lower,
+                                  model.upper]).astype(np.float64)
+            ints = np.array([_CODE[dec.family], int(dec.inverted), f, len(dec.columns),
+                             *c.index, *dec.columns], dtype=np.int64)
+    tree = model.tree
+    plan = _Plan(geo, ints, model.middle(), label, free,
+                 (tree.joints, tree.frames, tree.paths))
+    _PLANS[key] = plan
+    weakref.finalize(model, _PLANS.pop, key, None)
+    return plan
+
+
+def _fast(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLike | None,
+          frame: str | None, tol: float) -> IKSolutions | None:
+    """The one-call path of :func:`ik_all` for a pose of a 6R family; ``None``: not taken."""
+    if type(pose) is np.ndarray:
+        arr = pose
+        if arr.shape != (4, 4) or arr.dtype != np.float64:
+            return None
+    elif type(pose) is PoseGoal:
+        if frame is not None and pose.frame != frame:
+            return None  # as_target says what is wrong
+        arr, frame = pose.pose, pose.frame
+    else:
+        return None
+    plan = _PLANS.get((id(model), frame)) or _plan(model, frame)
+    if plan.geo is None:
+        return None
+    if q_ref is None:
+        ref = plan.middle.copy()  # the result's own (the plan's stays untouched)
+    elif (type(q_ref) is np.ndarray and q_ref.dtype == np.float64
+          and q_ref.shape == plan.middle.shape):
+        ref = q_ref.copy()  # checked for NaN by the kernel
+    else:
+        ref = np.array(model.as_q(q_ref, "q_ref"))
+    jd, fd, paths = plan.model
+    rows, inside, flags = pose6_distinct(plan.geo, plan.ints, jd, fd, paths, ref, arr, tol)
+    status = flags >> 1
+    if status != OK:
+        if status == BAD_REF:
+            model.as_q(ref, "q_ref")  # raises with the joint values
+        if status == NEEDS_CLEANUP:
+            return None  # the general path orthonormalises it
+        if status == NOT_FINITE:
+            raise InputError("a pose must be a finite 4x4 transform; it contains NaN or inf")
+        raise InputError("the pose's rotation part is not a rotation matrix (R R^T != I or "
+                         "det < 0)")
+    dof = ref.shape[0]
+    # a frozen dataclass's __init__ sets each field through object.__setattr__; filling the
+    # instance dict at once is the same object for a fraction of the cost
+    sols = object.__new__(IKSolutions)
+    sols.__dict__.update(q=rows[:, :dof], within_limits=inside,
+                         position_error=rows[:, dof], rotation_error=rows[:, dof + 1],
+                         singular=bool(flags & 1), family=plan.label, free=plan.free, q_ref=ref)
+    return sols

@@ -32,13 +32,15 @@ from armctl.servo.sim import faults as F
 from armctl.servo.sim.dispatch import REBOOT, Dispatcher, Reply
 from armctl.servo.sim.serialspeed import client_baudrate
 from armctl.servo.sim.servo import SimServo
-from armctl.servo.sim.wire import BROADCAST, DxlWire, FeetechWire, Instruction
-from armctl.servo_tables import VENDORS, Register, table_for
+from armctl.servo.sim.wire import BROADCAST, Instruction
+from armctl.servo.vendor_rules import RULES, factory_protocol
+from armctl.servo_tables import Register, table_for
 
 __all__ = ["JointLookup", "SimJoint", "SimServoSpec", "SimulatedBus"]
 
 _EARLY = 3e-4  # [s] how early a reply that is not the last of a group may be sent
 _INLINE = 5e-3  # [s] replies due within this are waited for at once; later ones are queued
+_SPIN = 1.5e-4  # [s] the last stretch before a group's last reply is due: the clock is polled
 _REPLY_FAULTS = (F.DroppedReply, F.CorruptedReply, F.TruncatedReply, F.LateReply, F.LatencySpike)
 
 
@@ -51,7 +53,7 @@ class SimServoSpec:
         model: Model name (``"sts3215"``, ``"xm430-w350"``, ...).
         position: Initial present position [tick].
         homing_offset: Homing offset already stored in the servo's EEPROM [tick].
-        multi_turn: Dynamixel only: start in extended position mode (4).
+        multi_turn: Start in extended position mode (models that have one).
     """
 
     servo_id: int
@@ -100,7 +102,7 @@ class SimulatedBus:
 
     Args:
         servos: The servos.
-        protocol: Wire protocol (Dynamixel 2.0 or Feetech).
+        protocol: Wire protocol (default: the one the servos' family speaks out of the box).
         baudrate: Baud rate the servos listen at [bit/s].
         wire_timing: Time replies as on the wire (see the module docstring).
         mapping: Joint mapping, so that :meth:`set_joint` accepts joint names and SI values.
@@ -110,9 +112,14 @@ class SimulatedBus:
             arrives either way, so a client's read timeout never sees simulated time.
     """
 
-    def __init__(self, servos: Iterable[SimServoSpec], protocol: Protocol = Protocol.DYNAMIXEL,
+    def __init__(self, servos: Iterable[SimServoSpec], protocol: Protocol | None = None,
                  baudrate: int = 1_000_000, *, wire_timing: bool = False,
                  mapping: JointLookup | None = None, clock: Clock | None = None):
+        servos = list(servos)
+        if protocol is None:
+            if not servos:
+                raise InputError("a simulated bus without servos needs its protocol named")
+            protocol = factory_protocol(table_for(servos[0].model).family)
         self.protocol = protocol
         self.clock = clock if clock is not None else default_clock()
         self.baudrate = baudrate
@@ -120,6 +127,7 @@ class SimulatedBus:
         self.mapping = mapping
         self.servos: list[SimServo] = []
         family = protocol.family
+        rules = RULES[protocol]
         for s in servos:
             table = table_for(s.model)
             if table.family is not family:
@@ -127,17 +135,17 @@ class SimulatedBus:
                                  f"{protocol.value}")
             if any(o.id == s.servo_id for o in self.servos):
                 raise InputError(f"servo id {s.servo_id} is used twice on the simulated bus")
-            servo = SimServo(table, s.servo_id, baudrate, s.position, clock=self.clock)
-            mode = VENDORS[family].multi_turn_mode
+            servo = SimServo(table, s.servo_id, baudrate, s.position, clock=self.clock,
+                             rules=rules())
+            mode = table.vendor.multi_turn_mode
             if s.multi_turn and mode is not None:
                 servo.set(Register.OPERATING_MODE, mode)
             if s.homing_offset:
                 servo.set(Register.HOMING_OFFSET, s.homing_offset)
             servo.set_present_position(s.position)
             self.servos.append(servo)
-        p1 = protocol is Protocol.DYNAMIXEL1  # Protocol 1.0 framing is Feetech's
-        self._wire = FeetechWire() if protocol is Protocol.FEETECH or p1 else DxlWire()
-        self._dispatch = Dispatcher(self._wire, protocol1=p1)
+        self._wire = rules.wire()
+        self._dispatch = Dispatcher(self._wire)
         self._faults: list[F.Fault] = []
         self._skips: dict[int, int] = {}  # id(reply fault) -> replies to let through first
         self._scheduled: list[tuple[float, F.Fault]] = []
@@ -487,7 +495,10 @@ class SimulatedBus:
             if wait > (0.0 if last else _EARLY):
                 self._write(pending)
                 pending.clear()
-                time.sleep(wait)
+                if last:
+                    _sleep_until(due)
+                else:
+                    time.sleep(wait)
             if self.trace is not None:
                 self.trace.append(("tx", pkt))
             pending += pkt
@@ -513,6 +524,19 @@ class SimulatedBus:
         live = {s.id: s for s in self.servos
                 if not self._missing(s) and (baud is None or baud == s.baudrate)}
         return self._dispatch.handle(ins, live)
+
+
+def _sleep_until(due: float) -> None:
+    """Wait until the monotonic clock reaches ``due`` [s], on time to a few microseconds.
+
+    The OS wakes a sleeping thread tens of microseconds late (timer slack, scheduling), which
+    would add to every transaction; so the last :data:`_SPIN` is spent polling the clock.
+    """
+    rest = due - time.monotonic() - _SPIN
+    if rest > 0:
+        time.sleep(rest)
+    while time.monotonic() < due:
+        pass
 
 
 def _with_count(fault: F.Fault, count: int) -> F.Fault:

@@ -1,19 +1,20 @@
 """Framing of the two wire protocols, as the simulated servos see them.
 
-:class:`DxlWire` frames Dynamixel Protocol 2.0 instruction packets by header and LEN, checks the
-CRC over the bytes as received and removes byte stuffing only where ``FF FF FD FD`` occurs (the
-SDK never stuffs what it sends). Status packets are stuffed. :class:`FeetechWire` frames
-``FF FF ID LEN INST P.. CHK`` packets with the Protocol 1.0 checksum. Both resynchronise on
-garbage by dropping one byte at a time.
+:class:`Protocol2Wire` frames Protocol 2.0 instruction packets (ROBOTIS e-Manual "Protocol
+2.0") by header and LEN, checks the CRC over the bytes as received and removes byte stuffing only
+where ``FF FF FD FD`` occurs (the SDK never stuffs what it sends). Status packets are stuffed.
+:class:`Protocol1Wire` frames ``FF FF ID LEN INST P.. CHK`` packets with the Protocol 1.0
+checksum (also the SCS/STS framing). Both resynchronise on garbage by dropping one byte at a
+time.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from armctl.servo.codec import crc16, feetech_checksum, stuff, to_le, unstuff
+from armctl.servo.codec import crc16, stuff, sum_checksum, to_le, unstuff
 
-__all__ = ["DxlWire", "FeetechWire", "Instruction"]
+__all__ = ["Instruction", "Protocol1Wire", "Protocol2Wire", "Wire"]
 
 BROADCAST = 0xFE
 
@@ -39,8 +40,8 @@ class Instruction:
     raw: bytes = b""
 
 
-class DxlWire:
-    """Dynamixel Protocol 2.0 framing."""
+class Protocol2Wire:
+    """Protocol 2.0 framing."""
 
     addr_size = 2
     header = b"\xff\xff\xfd"
@@ -78,9 +79,15 @@ class DxlWire:
         return pkt + to_le(crc16(pkt), 2)
 
     def fast_status(self, segments: list[tuple[int, int, bytes]]) -> bytes:
-        """A Fast Sync Read reply: one packet, running CRC per segment, no stuffing."""
-        size = len(segments[0][2])
-        length = 1 + len(segments) * (size + 4)
+        """A Fast Sync Read or Fast Bulk Read reply: one packet, no stuffing.
+
+        Each servo's segment is ``error, id, data, CRC``, the CRC running over the packet so
+        far (e-Manual Protocol 2.0 "Fast Sync Read", "Fast Bulk Read").
+
+        Args:
+            segments: ``(id, error byte, data)`` per servo, in the instruction's order.
+        """
+        length = 1 + sum(len(data) + 4 for _, _, data in segments)
         pkt = bytearray(b"\xff\xff\xfd\x00\xfe" + to_le(length, 2) + b"\x55")
         for sid, err, data in segments:
             pkt += bytes([err, sid]) + data
@@ -92,8 +99,8 @@ class DxlWire:
         return params[0] | params[1] << 8, params[2] | params[3] << 8, params[4:]
 
 
-class FeetechWire:
-    """Feetech SCS/STS framing (Protocol 1.0 plus Sync Read)."""
+class Protocol1Wire:
+    """Protocol 1.0 framing (SCS/STS: the same, plus Sync Read)."""
 
     addr_size = 1
 
@@ -119,14 +126,26 @@ class FeetechWire:
                 return out
             pkt = bytes(buf[:total])
             del buf[:total]
-            ok = feetech_checksum(pkt[2:-1]) == pkt[-1]
+            ok = sum_checksum(pkt[2:-1]) == pkt[-1]
             out.append(Instruction(pkt[2], pkt[4], pkt[5:-1], total, ok, pkt))
 
     def status(self, servo_id: int, error: int, params: bytes) -> bytes:
         """A status packet; the error byte never has bit 7 set."""
         body = bytes([servo_id, len(params) + 2, error & 0x7F]) + params
-        return b"\xff\xff" + body + bytes([feetech_checksum(body)])
+        return b"\xff\xff" + body + bytes([sum_checksum(body)])
 
     def addr_len(self, params: bytes) -> tuple[int, int, bytes]:
         """``(address, length, rest)`` of a read-type parameter block."""
         return params[0], params[1], params[2:]
+
+    def fast_status(self, segments: list[tuple[int, int, bytes]]) -> bytes:
+        """Protocol 1.0 has no fast group reads.
+
+        Raises:
+            ValueError: Always.
+        """
+        raise ValueError("Protocol 1.0 has no combined group read reply")
+
+
+#: The framing of one protocol.
+Wire = Protocol2Wire | Protocol1Wire

@@ -17,7 +17,7 @@ def test_ik_all_lists_2pi_variants_sorted_and_marked() -> None:
     arm = load_arm("ur5e")
     q = np.array([0.4, -1.2, 1.1, -0.5, 0.9, 2.0])
     q_ref = q + 0.1
-    sols = arm.ik_all(arm.fk(q), q_ref=q_ref)
+    sols = arm.ik_all(arm.fk(q), q_ref=q_ref, variants=True)
     dist = np.linalg.norm(sols.q - q_ref, axis=1)
     assert np.all(np.diff(dist) >= 0)  # nearest first
     assert np.allclose(sols.q[0], q, atol=1e-9)

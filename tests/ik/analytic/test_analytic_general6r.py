@@ -161,7 +161,7 @@ def test_the_published_sixteen_solution_example(row: int) -> None:
     q, _, errs, _ = pose6(GENERAL, False, c.h, c.o, c.m, c.index, c.sign,
                           np.arange(6, dtype=np.int64), np.ones(6, dtype=np.bool_), np.zeros(6),
                           goal, arm.tree.joints, arm.tree.frames, arm.tree.paths,
-                          arm.frame_index(None), TOL, arm.lower, arm.upper)
+                          arm.frame_index(None), TOL, arm.lower, arm.upper, True)
     assert errs.max() <= TOL
     assert len(_distinct(q)) == 16  # rows: also the +-pi variants of a joint at pi
     _exact(arm, goal, q)

@@ -70,7 +70,7 @@ def test_distinct_prefers_the_variant_inside_the_limits_nearest_the_reference() 
     arm = load_arm("ur5e")
     goal = PoseGoal(make_transform(rpy_to_matrix([3.1, 0.0, 0.0]), [0.3, 0.2, 0.4]))
     ref = np.array([5.0, -1.0, 1.0, 0.5, -5.0, 2.0])  # near the +2 pi / -2 pi ends
-    every = ik_all(arm, goal, q_ref=ref, tol=acceptance(goal))
+    every = ik_all(arm, goal, q_ref=ref, tol=acceptance(goal), variants=True)
     rotary = [t is not JointType.PRISMATIC for t in arm.joint_types]
     distinct = every.distinct(rotary)
     assert len(distinct) == 8 and len(every) == 256
