@@ -37,3 +37,19 @@ def simulated_time(request: pytest.FixtureRequest) -> Iterator[SimulatedClock | 
         yield clock
     finally:
         set_default_clock(previous)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _calibrations_outside_home(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """The bundled arms' calibrations go to a temporary ARMCTL_HOME (subprocesses inherit it)."""
+    import os
+
+    previous = os.environ.get("ARMCTL_HOME")
+    os.environ["ARMCTL_HOME"] = str(tmp_path_factory.mktemp("armctl_home"))
+    try:
+        yield
+    finally:
+        if previous is None:
+            os.environ.pop("ARMCTL_HOME", None)
+        else:
+            os.environ["ARMCTL_HOME"] = previous

@@ -29,16 +29,20 @@ def open_robot(args: argparse.Namespace, arm: Arm, hold: bool = False) -> Robot:
     present pose first), so a plan is checked against the effective limits before torque comes
     on, and a dry run never switches torque on. With ``--exit-policy park`` the park pose is
     checked against the config's limits before the bus opens and against the effective limits
-    right after, before anything moves.
+    right after, before anything moves. ``--port PORT`` and ``--sim`` choose the bus (see
+    :mod:`armctl.cli._bus_choice`).
 
     Raises:
-        InputError: ``--exit-policy park`` for an arm without a 'park' pose.
+        InputError: ``--exit-policy park`` for an arm without a 'park' pose; ``--port`` for a
+            config without a ``bus:`` section.
         JointLimitError: A 'park' pose outside the config's or the effective limits.
     """
     from armctl.cli import _checks
+    from armctl.cli._bus_choice import arm_on_chosen_bus
     from armctl.config.motion import ExitPolicy
     from armctl.robot import Robot
 
+    arm = arm_on_chosen_bus(args, arm)  # --port PORT / --sim
     policy = ExitPolicy(getattr(args, "exit_policy", None) or "hold")
     if policy is ExitPolicy.PARK:
         _checks.check_park_pose(arm)

@@ -396,19 +396,43 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         cal = Calibrator(ab, reference)
         run_wizard(cal, args.reference)
         result = cal.finish()
+    if not args.output:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    kept = keep_previous(out)
     path = result.save(out)
-    _print_calibration(args, result, path)
+    _print_calibration(args, result, path, kept)
     return 0
 
 
-def _print_calibration(args: argparse.Namespace, result: Any, path: Any) -> None:
-    """Print a calibration's table and the file written."""
+def keep_previous(path: Any) -> Any:
+    """Copy an existing calibration file aside (``NAME.previous.yaml``) before it is replaced.
+
+    Returns:
+        The copy's path, or ``None`` when there was no file.
+    """
+    import shutil
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.exists():
+        return None
+    backup = path.with_name(f"{path.stem}.previous{path.suffix}")
+    shutil.copy2(path, backup)
+    return backup
+
+
+def _print_calibration(args: argparse.Namespace, result: Any, path: Any,
+                       kept: Any = None) -> None:
+    """Print a calibration's table and the file written (and where the previous one went)."""
     rows = [[n, str(j.servo_id), fmt(j.zero_tick, 0), fmt(j.min_tick, 0), fmt(j.max_tick, 0),
              str(j.homing_offset), "yes" if j.wrap_detected else "no"]
             for n, j in result.joints.items()]
     text = table(["joint", "id", "zero", "min", "max", "offset", "wrap seen"], rows,
                  [1, 2, 3, 4, 5]) + f"\n\nwrote {path} (hash {result.hash})"
+    if kept is not None:
+        text += f"\nthe previous calibration is kept as {kept}"
     emit(args, {"file": str(path), "hash": result.hash,
+                "previous": None if kept is None else str(kept),
                 "joints": {n: j.record() for n, j in result.joints.items()}}, text)
 
 
@@ -421,6 +445,8 @@ def _calibrate_from_lerobot(args: argparse.Namespace, spec: ArmSpec) -> int:
     from armctl.servo.lerobot_calibration import import_lerobot
 
     out = Path(args.output) if args.output else calibration_path(spec)
+    if not args.output:
+        out.parent.mkdir(parents=True, exist_ok=True)
     if out.exists() and not args.force:
         raise ConfigError("the calibration file exists already; nothing was written",
                           KeyPath(out), "pass --force to replace it, or -o FILE to write "

@@ -6,7 +6,16 @@ import argparse
 import math
 from typing import TYPE_CHECKING, Any
 
-from armctl.cli._common import add_config, add_json, emit, finite, load_arm_arg, parse_angles
+from armctl.cli._bus_choice import add_bus_choice
+from armctl.cli._common import (
+    add_config,
+    add_json,
+    emit,
+    finite,
+    load_arm_arg,
+    parse_angles,
+    positive,
+)
 from armctl.cli._parser import add_later
 from armctl.cli._progress import Progress
 from armctl.errors import InputError
@@ -15,7 +24,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from armctl.arm import Arm
-    from armctl.ik import IKResult
+    from armctl.ik import Goal, IKResult
     from armctl.motion import MotionPlan
     from armctl.robot import MoveReport, Robot
 
@@ -29,6 +38,7 @@ def _add_move_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None,
                    help="what to do when the command ends normally (default: hold); a stopped "
                         "motion always holds where it stopped")
+    add_bus_choice(p)  # --port PORT | --sim
     p.set_defaults(stop_signals=True)  # SIGINT, SIGTERM, SIGHUP stop the motion (cli main)
 
 
@@ -62,8 +72,18 @@ def _move_to_pose_arguments(p: argparse.ArgumentParser) -> None:
 
     add_config(p)
     add_goal_arguments(p)  # --xyz, --rpy/--quat/--direction, --frame, --tol-pos, --tol-rot
-    p.add_argument("--deg", action="store_true", help="--rpy in degrees")
+    p.add_argument("--deg", action="store_true",
+                   help="--rpy in degrees, --tcp-angular-speed in deg/s")
+    p.add_argument("--relative", nargs="?", const="base", choices=["base", "tool"],
+                   default=None, metavar="base|tool",
+                   help="--xyz [m] and --rpy are offsets from the present pose, along and about "
+                        "the base axes (default) or the tool's own axes ('--relative tool')")
     p.add_argument("--linear", action="store_true", help="move the tool along a straight line")
+    p.add_argument("--tcp-speed", type=positive, default=None, metavar="M_PER_S",
+                   help="with --linear: largest speed of the tool along the line [m/s]")
+    p.add_argument("--tcp-angular-speed", type=positive, default=None, metavar="RAD_PER_S",
+                   help="with --linear: largest angular speed of the tool [rad/s] (deg/s with "
+                        "--deg)")
     p.add_argument("--solver", default="auto", help="IK solver (default auto)")
     p.add_argument("--force-pose", action="store_true",
                    help="move to a full pose (--rpy/--quat) even when fewer than 6 joints move "
@@ -79,38 +99,74 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
     from armctl.cli import _checks
     from armctl.cli._motion_report import plan_data, plan_text, stream_text
     from armctl.cli._motion_run import nothing_to_do, run_motion
+    from armctl.cli._relative import check_relative_args, relative_goal, tcp_speeds
     from armctl.cli.ik import build_goals, check_pose_dof
 
-    if args.xyz is None:
+    if args.xyz is None and args.relative is None:
         raise InputError("move-to-pose needs --xyz X Y Z (optionally with --rpy, --quat or "
-                         "--direction)")
+                         "--direction), or offsets with --relative")
     arm = load_arm_arg(args)
-    (goal,) = build_goals(args, arm)
-    if not args.force_pose:  # as armctl ik: a 6-DOF pose for fewer joints, refused at once
-        check_pose_dof(arm, (goal,))
+    tcp_speed, tcp_angular_speed = tcp_speeds(args)
+    axes = None
+    fixed: Goal | None = None  # an absolute goal, known before the bus opens
+    if args.relative is not None:  # the goal needs the present pose: built once the bus is open
+        axes = check_relative_args(args, arm)
+    else:
+        (fixed,) = build_goals(args, arm)
+        if not args.force_pose:  # as armctl ik: a 6-DOF pose for fewer joints, refused at once
+            check_pose_dof(arm, (fixed,))
     _checks.check_speed_arg(args, arm)
     _checks.check_solver(args.solver)
-    _checks.check_goal_reach(arm, goal, args.solver)
+    if fixed is not None:
+        _checks.check_goal_reach(arm, fixed, args.solver)
+    relative: dict[str, Any] = {}
 
     def go(robot: Robot, progress: Progress) -> MoveReport:
+        if axes is None:
+            assert fixed is not None  # mypy: built above
+            goal = fixed
+        else:
+            present = robot.arm.fk(robot.plan_start(), args.frame)
+            goal = relative_goal(robot.arm, present, args, axes)
+            relative.update({"from_xyz": present[:3, 3], "goal": goal})
+
         def show(plan: MotionPlan, ik: IKResult | None) -> bool:
             """Print the plan; whether to run it (not when it does not move the arm)."""
             if nothing_to_do(plan):
                 return False
-            head = (f"arm {robot.arm.name}: goal xyz {np.round(args.xyz, 4).tolist()} m "
-                    f"({type(goal).__name__}); "
+            target = goal.target_position
+            where = "" if target is None else f"xyz {np.round(target, 4).tolist()} m "
+            line = ""
+            if args.linear:
+                v, w = plan.extra["tcp_speed_peak"], plan.extra["tcp_angular_speed_peak"]
+                assert isinstance(v, float) and isinstance(w, float)  # plan_line's figures
+                line = (f"straight line, peak tool speed {v:.4f} m/s, "
+                        f"{math.degrees(w):.2f} deg/s")
+            head = (f"arm {robot.arm.name}: goal {where}"
+                    f"({type(goal).__name__}"
+                    + (f", relative to the present pose in the {axes.value} frame"
+                       if axes is not None else "") + "); "
                     + (f"IK solver {ik.solver} ({ik.iterations} iterations, "
-                       f"{ik.position_error * 1000:.3f} mm)" if ik else "straight line"))
+                       f"{ik.position_error * 1000:.3f} mm)" if ik else line))
             if not args.json:
                 print(plan_text(robot, plan, head), flush=True)
             return not args.dry_run
 
         return robot.move_to_pose(goal, linear=args.linear, speed=args.speed,
-                                  solver=args.solver, on_cycle=progress, on_plan=show)
+                                  solver=args.solver, on_cycle=progress, on_plan=show,
+                                  tcp_speed=tcp_speed, tcp_angular_speed=tcp_angular_speed)
 
     robot, report = run_motion(args, go, arm)
     data: dict[str, Any] = {"plan": plan_data(robot, report.plan),
                             "solver": report.ik.solver if report.ik else None}
+    if args.linear:
+        data.update(tcp_speed_peak=report.plan.extra.get("tcp_speed_peak"),
+                    tcp_angular_speed_peak=report.plan.extra.get("tcp_angular_speed_peak"),
+                    tcp_speed=tcp_speed, tcp_angular_speed=tcp_angular_speed)
+    if axes is not None and relative:
+        data["relative"] = {"frame": axes.value, "from_xyz": relative["from_xyz"],
+                            "goal_xyz": relative["goal"].target_position,
+                            "goal_kind": type(relative["goal"]).__name__}
     idle = "already at the goal; nothing to do" if nothing_to_do(report.plan) else None
     sdata, stext = stream_text(robot, report, idle)
     data.update(sdata)
@@ -139,7 +195,7 @@ def cmd_move_joints(args: argparse.Namespace) -> int:
     q = parse_angles(args.values, args.deg, arm, "move-joints values")
     _check_values(arm, q, args.deg)
     _checks.check_speed_arg(args, arm)
-    return _joint_command(args, arm, lambda robot: q, "move to joint values",
+    return joint_command(args, arm, lambda robot: q, "move to joint values",
                           "already at these joint values; nothing to do")
 
 def cmd_named(args: argparse.Namespace) -> int:
@@ -149,7 +205,7 @@ def cmd_named(args: argparse.Namespace) -> int:
     arm = load_arm_arg(args)
     _checks.check_named_pose(arm, args.pose)
     _checks.check_speed_arg(args, arm)
-    return _joint_command(args, arm, lambda robot: robot.arm.named_pose(args.pose),
+    return joint_command(args, arm, lambda robot: robot.arm.named_pose(args.pose),
                           f"move to the {args.pose!r} pose",
                           f"already at the {args.pose!r} pose; nothing to do")
 
@@ -189,8 +245,18 @@ def _check_values(arm: Arm, q: np.ndarray, deg: bool) -> None:
         exc.details["limit_source"] = limits.joint(name).bound(v).source.value
         raise exc
 
-def _joint_command(args: argparse.Namespace, arm: Arm, target: Any, what: str, idle: str
-                   ) -> int:
+def joint_command(args: argparse.Namespace, arm: Arm, target: Any, what: str, idle: str,
+                  extra: Any = None) -> int:
+    """Open the robot, plan a joint move to ``target(robot)``, run it and report.
+
+    Args:
+        args: The command's arguments.
+        arm: The arm (as loaded; ``--port``/``--sim`` choose its bus).
+        target: ``target(robot)``: the goal joint vector ``(dof,)`` [rad]/[m].
+        what: The plan's description.
+        idle: The message when the arm is already there.
+        extra: ``extra(robot, plan)``: more JSON fields (a dict), or ``None``.
+    """
     from armctl.cli._motion_report import plan_data, plan_text, reached_joints, stream_text
     from armctl.cli._motion_run import nothing_to_do, one_tick, run_motion
 
@@ -214,6 +280,8 @@ def _joint_command(args: argparse.Namespace, arm: Arm, target: Any, what: str, i
 
     robot, report = run_motion(args, go, arm)
     data: dict[str, Any] = {"plan": plan_data(robot, report.plan)}
+    if extra is not None:
+        data.update(extra(robot, report.plan))
     if still:
         data.update(moved=False, nothing_to_do=True)
         if args.json:

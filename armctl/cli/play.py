@@ -6,6 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING, Any
 
+from armctl.cli._bus_choice import add_bus_choice
 from armctl.cli._common import (
     add_config,
     add_json,
@@ -51,6 +52,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None,
                    help="what to do when playback ends normally (default: hold); a stopped "
                         "motion always holds where it stopped")
+    add_bus_choice(p)  # --port PORT | --sim
     add_json(p)
     p.set_defaults(func=cmd_play, stop_signals=True)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from armctl.cli._bus_choice import add_bus_choice
 from armctl.cli._common import add_config, add_json, emit, load_arm_arg
 
 ORDER = 41
@@ -28,6 +29,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--stiff", action="store_true", help="start with torque on (jog mode)")
     p.add_argument("--deg", action="store_true",
                    help="write angles in degrees (with --append: the file's unit is kept)")
+    add_bus_choice(p)  # --port PORT | --sim
     add_json(p)
     p.set_defaults(func=cmd_teach)
 

@@ -9,15 +9,20 @@ from armctl.config.schema import ArmSpec
 from armctl.config.urdf import load_urdf
 from armctl.errors import ConfigError, KeyPath
 
-__all__ = ["ArmSpec", "bundled_configs", "load_spec", "resolve_config"]
+__all__ = ["ArmSpec", "bundled_configs", "bundled_configs_dir", "load_spec", "resolve_config"]
 
 _URDF_SUFFIXES = (".urdf", ".xml")
 _YAML_SUFFIXES = (".yaml", ".yml")
 
 
+def bundled_configs_dir() -> Path:
+    """The folder of the arm configs shipped with armctl (part of the installed package)."""
+    return (Path(__file__).resolve().parent.parent / "configs").resolve()
+
+
 def bundled_configs() -> dict[str, Path]:
     """The arm configs shipped with armctl, by name (``so101``, ``ur5e``, ...)."""
-    root = Path(__file__).resolve().parent.parent / "configs"
+    root = bundled_configs_dir()
     return {p.stem: p for p in sorted(root.glob("*.yaml")) if not p.name.startswith("_")}
 
 

@@ -5,7 +5,9 @@ orientation). Each sample is solved by IK seeded with the previous solution and 
 restarts, so the arm stays on one branch; a sample that fails, or a joint that jumps between two
 samples, stops planning and reports how far along the path it got. The joint path is then a C2
 quintic spline over the path parameter ``s`` and is timed with a minimum-jerk ``s(t)`` scaled to
-the velocity, acceleration and jerk limits. Nothing moves unless the whole path is planned and
+the velocity, acceleration and jerk limits and, when given, to the tool's linear and angular
+speed limits (:class:`LineOptions` ``tcp_speed`` [m/s], ``tcp_angular_speed`` [rad/s]). Nothing
+moves unless the whole path is planned and
 checked.
 """
 
@@ -43,6 +45,13 @@ class LineOptions:
         path_tolerance: Largest distance of the tool from the line between samples [m].
         solver: IK solver name.
         ik_iterations: Iteration budget per sample.
+        tcp_speed: Largest linear speed of the goal's frame along the line [m/s] (``None``:
+            only the joint limits bound it).
+        tcp_angular_speed: Largest angular speed of the goal's frame [rad/s] (``None``: only
+            the joint limits bound it).
+
+    Raises:
+        ValueError: A TCP speed that is not a positive finite number.
     """
 
     max_step: float = 0.005
@@ -51,6 +60,14 @@ class LineOptions:
     path_tolerance: float = 0.001
     solver: str = "auto"
     ik_iterations: int = 100
+    tcp_speed: float | None = None
+    tcp_angular_speed: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("tcp_speed", "tcp_angular_speed"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f"LineOptions.{name} must be a positive finite number, got {v!r}")
 
 
 def interpolate_goal(start: Array, goal: Goal, s: float) -> Goal:
@@ -132,10 +149,11 @@ def plan_line(model: KinematicModel, q0: npt.ArrayLike, goal: Goal, limits: Moti
             direction, pose or look-at).
         limits: The arm's hard limits.
         speed: Speed factor in (0, 1].
-        options: Sampling resolution and tolerances.
+        options: Sampling resolution, tolerances and the frame's speed limits.
 
     Returns:
-        The checked plan.
+        The checked plan; ``extra`` has the peak linear [m/s] and angular [rad/s] speeds of the
+        goal's frame (``tcp_speed_peak``, ``tcp_angular_speed_peak``).
 
     Raises:
         PathError: With the fraction of the path that could be planned and why it fails.
@@ -162,17 +180,56 @@ def plan_line(model: KinematicModel, q0: npt.ArrayLike, goal: Goal, limits: Moti
     else:
         raise PathError(where, f"the tool would leave the line by {dev * 1000:.1f} mm between "
                         "IK samples (the path bends sharply near a singularity)")
-    timing = _timing(path, scaled)
+    rates = _frame_rates(model, path, goal.frame, 40 * n)
+    timing = _timing(path, scaled, _tcp_time(rates, options))
     traj = PathTrajectory(path, timing)
     checked = check_trajectory(traj, limits, check_jerk=True, hint="lower the speed factor")
     wps = (Waypoint(0.0, q_start, "start"), Waypoint(traj.duration, qs[-1], "goal"))
+    peak = _PEAK_SDOT / traj.duration  # largest ds/dt of the minimum-jerk timing
     return MotionPlan(traj, limits, (), wps, time.perf_counter() - t0, checked,
                       f"straight line, {dist * 1000:.0f} mm, {n} IK samples",
-                      {"samples": n, "line_deviation": dev})
+                      {"samples": n, "line_deviation": dev,
+                       "tcp_speed_peak": rates[0] * peak,
+                       "tcp_angular_speed_peak": rates[1] * peak})
 
 
-def _timing(path: PiecewisePolynomial, limits: MotionLimits) -> PiecewisePolynomial:
-    """A minimum-jerk ``s(t)`` from 0 to 1, as short as the limits allow.
+#: Peak of ds/dt of a minimum-jerk ``s(t)`` from 0 to 1 over a unit time: 15/8 at t = 1/2.
+_PEAK_SDOT = 15.0 / 8.0
+
+
+def _frame_rates(model: KinematicModel, path: PiecewisePolynomial, frame: str | None,
+                 n: int) -> tuple[float, float]:
+    """Largest ``|dp/ds|`` [m] and ``|dtheta/ds|`` [rad] of a frame along a path ``q(s)``.
+
+    By finite differences of the frame's pose (FK) at ``n + 1`` points of ``s`` in [0, 1]: the
+    translation between neighbours, and the angle of the relative rotation.
+    """
+    s = np.linspace(0.0, 1.0, n + 1)
+    q, _, _ = path.sample_many(s)
+    poses = model.fk_batch(q, frame)
+    dp = np.linalg.norm(np.diff(poses[:, :3, 3], axis=0), axis=1)
+    rel = np.einsum("nji,njk->nik", poses[:-1, :3, :3], poses[1:, :3, :3])  # R_a^T R_b
+    cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+    ds = 1.0 / n
+    return float(np.max(dp, initial=0.0)) / ds, float(np.max(np.arccos(cos), initial=0.0)) / ds
+
+
+def _tcp_time(rates: tuple[float, float], options: LineOptions) -> float:
+    """The shortest duration [s] of a minimum-jerk ``s(t)`` that keeps the frame's speeds.
+
+    With ``s(t)`` minimum-jerk over ``T``, the peak ``ds/dt`` is ``15 / (8 T)``, so a peak
+    speed ``rate * 15 / (8 T) <= limit`` needs ``T >= 15 rate / (8 limit)``.
+    """
+    t = 0.0
+    for rate, limit in zip(rates, (options.tcp_speed, options.tcp_angular_speed), strict=True):
+        if limit is not None:
+            t = max(t, _PEAK_SDOT * rate / limit)
+    return t
+
+
+def _timing(path: PiecewisePolynomial, limits: MotionLimits, at_least: float = 0.0
+            ) -> PiecewisePolynomial:
+    """A minimum-jerk ``s(t)`` from 0 to 1, as short as the limits allow, and ``at_least`` [s].
 
     Velocity, acceleration and jerk count; the jerk is estimated by differences of the sampled
     acceleration.
@@ -188,6 +245,6 @@ def _timing(path: PiecewisePolynomial, limits: MotionLimits) -> PiecewisePolynom
     ratio = max(float(np.max(np.abs(qd) / limits.velocity)),
                 math.sqrt(float(np.max(np.abs(qdd) / limits.acceleration))),
                 float(np.cbrt(np.max(np.abs(jerk) / limits.jerk))), 1e-3)
-    t_total = ratio * 1.02
+    t_total = max(ratio * 1.02, at_least)
     c = quintic_segment(zero, zero, zero, one, zero, zero, t_total)
     return PiecewisePolynomial([0.0, t_total], c[None])

@@ -150,7 +150,8 @@ class Robot:
     @classmethod
     def open(cls, config: str | Path | Arm, *, speed: float | None = None,
              exit_policy: ExitPolicy | None = None, hold: bool = True,
-             clock: Clock | None = None) -> Robot:
+             clock: Clock | None = None, port: str | None = None, sim: bool = False
+             ) -> Robot:
         """Load an arm, open its bus and hold the present pose with torque on.
 
         Args:
@@ -163,16 +164,24 @@ class Robot:
             clock: Time base of the motions and, for ``port: sim``, of the simulated servos
                 (default :func:`~armctl.clock.default_clock`); a
                 :class:`~armctl.clock.SimulatedClock` runs them in simulated time.
+            port: Drive the servos on this port instead of the config's (a serial device, or
+                the pty of a running ``armctl sim``).
+            sim: Use the built-in simulated bus, also for an arm without a ``bus:`` section
+                (one simulated servo per joint, see :mod:`armctl.robot.bus_choice`).
 
         Raises:
+            InputError: Both ``port`` and ``sim``, or ``port`` for an arm without a ``bus:``
+                section.
             ConfigError: Bad config or calibration file.
             BusError: The bus cannot be opened or a servo is missing.
             JointLimitError: With ``hold``, a joint further outside its effective limits than
                 encoder noise (move it inside by hand with torque off).
         """
+        from armctl.robot.bus_choice import arm_on_bus
         from armctl.servo.arm_bus import ArmBus
 
         arm = config if isinstance(config, Arm) else load_arm(config)
+        arm = arm_on_bus(arm, port, sim)
         calibration = _calibration(arm)
         clock = clock if clock is not None else default_clock()
         bus = ArmBus.from_spec(arm.spec, calibration, clock=clock).open()
@@ -375,18 +384,32 @@ class Robot:
         return res
 
     def plan_pose(self, goal: Goal, *, linear: bool = False, speed: float | None = None,
-                  solver: str = "auto") -> tuple[MotionPlan, IKResult | None]:
+                  solver: str = "auto", tcp_speed: float | None = None,
+                  tcp_angular_speed: float | None = None
+                  ) -> tuple[MotionPlan, IKResult | None]:
         """A checked move of the tool to a goal: joint-space (IK at the goal) or a straight line.
 
+        ``tcp_speed`` [m/s] and ``tcp_angular_speed`` [rad/s] bound the goal frame's speeds on a
+        straight line (with ``linear``; see :class:`~armctl.motion.cartesian.LineOptions`).
+
         Raises:
+            InputError: A TCP speed without ``linear``.
             NoSolutionError: Goal unreachable (nothing moves).
             PathError: A straight line that cannot be followed (with where it fails).
         """
+        if not linear and (tcp_speed is not None or tcp_angular_speed is not None):
+            raise InputError("a TCP speed applies to a straight-line move (linear=True); a "
+                             "joint-space move is timed by the speed factor")
+        try:
+            options = LineOptions(solver=solver, tcp_speed=tcp_speed,
+                                  tcp_angular_speed=tcp_angular_speed)
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
         start = self.plan_start()
         if linear:
             with self._limit_sources():
                 plan = plan_line(self.arm, start, goal, self.limits, self._speed(speed),
-                                 LineOptions(solver=solver))
+                                 options)
             return plan, None
         res = self.solve(goal, solver, start)
         # Keep joints the goal does not involve (the gripper) where they are.
@@ -495,7 +518,8 @@ class Robot:
                      linear: bool = False, speed: float | None = None, solver: str = "auto",
                      dry_run: bool = False,
                      on_cycle: Callable[[CycleInfo], None] | None = None,
-                     on_plan: Callable[[MotionPlan, IKResult | None], bool] | None = None
+                     on_plan: Callable[[MotionPlan, IKResult | None], bool] | None = None,
+                     tcp_speed: float | None = None, tcp_angular_speed: float | None = None
                      ) -> MoveReport:
         """Move the tool to a goal (or to position ``xyz`` [m]); report the reached pose.
 
@@ -514,12 +538,16 @@ class Robot:
                 line) before anything moves; when it returns ``False`` nothing moves and the
                 report is that of a dry run (e.g. to show the plan first, or to skip a plan
                 that does not move the arm).
+            tcp_speed: With ``linear``: largest speed of the goal's frame [m/s].
+            tcp_angular_speed: With ``linear``: largest angular speed of the goal's frame
+                [rad/s].
         """
         if goal is None:
             if xyz is None:
                 raise InputError("give a goal or xyz")
             goal = PositionGoal(np.asarray(xyz, dtype=float))
-        plan, ik = self.plan_pose(goal, linear=linear, speed=speed, solver=solver)
+        plan, ik = self.plan_pose(goal, linear=linear, speed=speed, solver=solver,
+                                  tcp_speed=tcp_speed, tcp_angular_speed=tcp_angular_speed)
         if dry_run or (on_plan is not None and not on_plan(plan, ik)):
             return MoveReport(plan, None, ik)
         res = self.execute(plan, on_cycle)

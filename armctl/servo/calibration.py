@@ -11,18 +11,20 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import yaml
 
 from armctl.atomic_write import write_atomic
+from armctl.config import bundled_configs_dir
 from armctl.config.schema import ArmSpec
 from armctl.config.source import load_yaml
 from armctl.errors import ConfigError, KeyPath
 
 __all__ = ["Calibration", "JointCalibration", "calibration_path", "check_against",
-           "load_calibration"]
+           "load_calibration", "user_calibration_dir"]
 
 VERSION = 1
 
@@ -141,11 +143,26 @@ class Calibration:
         return cal
 
 
+def user_calibration_dir() -> Path:
+    """Where the calibrations of the bundled arms are kept: never inside the installed package.
+
+    ``$ARMCTL_HOME/calibration`` when ``ARMCTL_HOME`` is set, else
+    ``$XDG_CONFIG_HOME/armctl/calibration`` (``~/.config/armctl/calibration``).
+    """
+    home = os.environ.get("ARMCTL_HOME")
+    if home:
+        return Path(home).expanduser() / "calibration"
+    xdg = os.environ.get("XDG_CONFIG_HOME")
+    base = Path(xdg).expanduser() if xdg else Path.home() / ".config"
+    return base / "armctl" / "calibration"
+
+
 def calibration_path(spec: ArmSpec) -> Path:
     """Where an arm's calibration file lives.
 
     That is ``bus.calibration`` relative to the config, else ``<config name>.calibration.yaml``
-    beside it.
+    beside it; for a bundled arm (whose config is part of the installed package, rewritten by
+    every upgrade) it is in :func:`user_calibration_dir`.
 
     Raises:
         ConfigError: For an arm without a file or bus section.
@@ -155,7 +172,10 @@ def calibration_path(spec: ArmSpec) -> Path:
                           "calibrate an arm loaded from a YAML file with a bus section")
     if spec.bus.calibration:
         return (spec.file.parent / spec.bus.calibration).resolve()
-    return spec.file.with_name(f"{spec.file.stem}.calibration.yaml")
+    name = f"{spec.file.stem}.calibration.yaml"
+    if spec.file.resolve().parent == bundled_configs_dir():
+        return user_calibration_dir() / name
+    return spec.file.with_name(name)
 
 
 def load_calibration(spec: ArmSpec) -> Calibration | None:

@@ -264,6 +264,32 @@ CORPUS: list[tuple[list[str], int]] = [
     (["torque", PLANAR, "on"], 2),
     (["sim", SO, "--scenario", "/nonexistent_armctl_scenario.yaml"], 2),
     (["calibrate", PLANAR], 2),
+    # -- gripper, --port/--sim ----------------------------------------------------------------
+    (["gripper", SO], 2),
+    (["gripper", SO, "ajar"], 2),
+    (["gripper", SO, "inf"], 2),
+    (["gripper", SO, "90"], 2),
+    (["gripper", SO, "5", "--mm"], 2),
+    (["gripper", PLANAR, "open"], 2),
+    (["gripper", SO, "open", "--sim", "--port", "/nonexistent_armctl_port"], 2),
+    (["gripper", SO, "open", "--port", "/nonexistent_armctl_port"], 4),
+    (["move-joints", SO, "0", "0", "0", "0", "0", "0", "--port", ""], 2),
+    (["move-to-pose", SO, "--relative"], 2),
+    (["move-to-pose", SO, "--xyz", "0.2", "0", "0.2", "--tcp-speed", "0.1"], 2),
+    (["move-to-pose", SO, "--xyz", "0.2", "0", "0.2", "--linear", "--tcp-speed", "-1"], 2),
+    # -- teleop ---------------------------------------------------------------------------------
+    (["teleop", "so101_leader"], 2),
+    (["teleop", "so101_leader", SO, "--rate", "0"], 2),
+    (["teleop", "so101_leader", SO, "--start-speed", "2"], 2),
+    (["teleop", "so101_leader", SO, "--scale", "elbow=2"], 2),
+    (["teleop", "so101_leader", SO, "--scale", "elbow_flex=fast"], 2),
+    (["teleop", "so101_leader", SO, "--scales", "{broken}"], 2),
+    (["teleop", "so101_leader", SO, "--every", "20"], 2),
+    (["teleop", "so101_leader", SO, "--record", "{existing}", "--every", "20"], 2),
+    (["teleop", "so101_leader", SO, "--record", "{d}/x.txt"], 2),
+    (["teleop", "so101_leader", SO, "--record", "{d}/r.yaml", "--every", "5"], 2),
+    (["teleop", "so101_leader", "omx", "--json"], 2),
+    (["teleop", "so101_leader", PLANAR], 2),
 ]
 
 
