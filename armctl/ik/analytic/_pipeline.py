@@ -17,6 +17,42 @@ SPHERICAL, PARALLEL, PAIR, GENERAL = 0, 1, 2, 3
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def _candidates(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray,
+                joints: np.ndarray, sign: np.ndarray, q_ref: np.ndarray, goal: np.ndarray
+                ) -> tuple[np.ndarray, int, bool]:
+    """The family solver's raw candidates for ``goal`` (inverted with the chain if it is).
+
+    Returns:
+        ``(raw, n, singular)``: the first ``n`` rows of ``raw`` ``(CAPACITY, 7)`` are the
+        candidates in solver-chain joints, and whether the goal is at a singularity.
+    """
+    target = np.empty((4, 4))
+    for i in range(4):
+        for j in range(4):
+            target[i, j] = goal[i, j] if i < 3 else (1.0 if j == 3 else 0.0)
+    if inverted:
+        for i in range(3):
+            for j in range(3):
+                target[i, j] = goal[j, i]
+        for i in range(3):
+            target[i, 3] = -(goal[0, i] * goal[0, 3] + goal[1, i] * goal[1, 3]
+                             + goal[2, i] * goal[2, 3])
+    ref = np.empty(6)
+    for c in range(6):
+        ref[c] = sign[c] * q_ref[joints[c]]
+    raw = np.empty((CAPACITY, 7))
+    if code == SPHERICAL:
+        n, singular = spherical_wrist(h, o, m, target, ref, raw)
+    elif code == PARALLEL:
+        n, singular = three_parallel(h, o, m, target, ref, raw)
+    elif code == PAIR:
+        n, singular = one_pair(h, o, m, target, ref, raw)
+    else:
+        n, singular = general6r(h, o, m, target, ref, raw)
+    return raw, n, singular
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def pose6(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray,
           joints: np.ndarray, sign: np.ndarray, cols: np.ndarray, is_col: np.ndarray,
           q_ref: np.ndarray, goal: np.ndarray, jd: np.ndarray, fd: np.ndarray,
@@ -48,26 +84,7 @@ def pose6(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray
     Returns:
         ``(q, within_limits, errors, singular)`` as :func:`assemble` plus the singular flag.
     """
-    target = goal.copy()
-    if inverted:
-        for i in range(3):
-            for j in range(3):
-                target[i, j] = goal[j, i]
-        for i in range(3):
-            target[i, 3] = -(goal[0, i] * goal[0, 3] + goal[1, i] * goal[1, 3]
-                             + goal[2, i] * goal[2, 3])
-    ref = np.empty(6)
-    for k in range(6):
-        ref[k] = sign[k] * q_ref[joints[k]]
-    raw = np.empty((CAPACITY, 7))
-    if code == SPHERICAL:
-        n, singular = spherical_wrist(h, o, m, target, ref, raw)
-    elif code == PARALLEL:
-        n, singular = three_parallel(h, o, m, target, ref, raw)
-    elif code == PAIR:
-        n, singular = one_pair(h, o, m, target, ref, raw)
-    else:
-        n, singular = general6r(h, o, m, target, ref, raw)
+    raw, n, singular = _candidates(code, inverted, h, o, m, joints, sign, q_ref, goal)
     z = np.zeros(3)
     q, inside, errs, _ = assemble(raw, n, joints, sign, cols, is_col, q_ref, POSE, goal,
                                   goal[:3, 3].copy(), z, z, jd, fd, paths, f, tol, lower, upper,
@@ -153,29 +170,7 @@ def pose6_distinct(geo: np.ndarray, ints: np.ndarray, jd: np.ndarray, fd: np.nda
     code, inverted, f, k = ints[0], ints[1] != 0, ints[2], ints[3]
     joints = ints[4:10]
     cols = ints[10:10 + k]
-    target = np.empty((4, 4))
-    for i in range(4):
-        for j in range(4):
-            target[i, j] = goal[i, j] if i < 3 else (1.0 if j == 3 else 0.0)
-    if inverted:
-        for i in range(3):
-            for j in range(3):
-                target[i, j] = goal[j, i]
-        for i in range(3):
-            target[i, 3] = -(goal[0, i] * goal[0, 3] + goal[1, i] * goal[1, 3]
-                             + goal[2, i] * goal[2, 3])
-    ref = np.empty(6)
-    for c in range(6):
-        ref[c] = sign[c] * q_ref[joints[c]]
-    raw = np.empty((CAPACITY, 7))
-    if code == SPHERICAL:
-        n, singular = spherical_wrist(h, o, m, target, ref, raw)
-    elif code == PARALLEL:
-        n, singular = three_parallel(h, o, m, target, ref, raw)
-    elif code == PAIR:
-        n, singular = one_pair(h, o, m, target, ref, raw)
-    else:
-        n, singular = general6r(h, o, m, target, ref, raw)
+    raw, n, singular = _candidates(code, inverted, h, o, m, joints, sign, q_ref, goal)
     is_col = np.zeros(dof, dtype=np.bool_)
     for c in range(k):
         is_col[cols[c]] = True
