@@ -123,6 +123,14 @@ def add_config(parser: argparse.ArgumentParser) -> None:
                         help="arm YAML, URDF, or a bundled arm name such as so101")
 
 
+def add_log_option(p: argparse.ArgumentParser) -> None:
+    """Add ``--log FILE.csv`` (the per-cycle motion log) to a motion command."""
+    p.add_argument("--log", metavar="FILE.csv", default=None,
+                   help="write every streaming cycle's time [s] and each joint's commanded and "
+                        "measured value [rad]/[m] to a new CSV file after the motion (also the "
+                        "cycles that ran before a stop or a failure); see 'armctl plot'")
+
+
 def add_json(parser: argparse.ArgumentParser) -> None:
     """Add ``--json``: print one JSON object (schema in docs/cli.md) instead of text."""
     parser.add_argument("--json", action="store_true",

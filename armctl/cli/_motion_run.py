@@ -70,14 +70,24 @@ def run_motion(args: argparse.Namespace, fn: Any, arm: Arm) -> Any:
     from armctl.config.motion import ExitPolicy
     from armctl.robot import MotionStopped
 
+    log_path = getattr(args, "log", None)
+    if log_path is not None:
+        from armctl.robot.motion_log import check_log_target
+
+        check_log_target(log_path)  # before anything moves
     robot = open_robot(args, arm)
     dry = getattr(args, "dry_run", False)
     progress = Progress(not args.json and not dry)
+    recorder = _CycleRecorder(robot, log_path) if log_path is not None and not dry else None
     try:
         result = fn(robot, progress)
         progress.done()
+        if recorder is not None:
+            recorder.write(quiet=args.json)
     except BaseException as exc:
         progress.done()
+        if recorder is not None:
+            recorder.write_after_failure()
         if isinstance(exc, MotionStopped) and not args.json:
             from armctl.cli import _motion_report
 
@@ -96,6 +106,69 @@ def run_motion(args: argparse.Namespace, fn: Any, arm: Arm) -> Any:
     else:
         robot.close()
     return robot, result
+
+
+class _CycleRecorder:
+    """Collect the cycles of every motion a command streams, one time axis for all.
+
+    The robot hands over the cycles of every motion it streams (``Robot.on_motion_cycles``),
+    also when a motion ends in a stop or a failure.
+    """
+
+    def __init__(self, robot: Robot, path: str) -> None:
+        self.robot = robot
+        self.path = path
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        robot.on_motion_cycles = self._take
+
+    def _take(self, cycles: tuple[list[float], list[Any], list[Any]]) -> None:
+        t, cmd, meas = cycles
+        if t:
+            self.parts.append((np.array(t), np.array(cmd), np.array(meas)))
+
+    def log(self) -> Any:
+        """The cycles so far as a :class:`~armctl.robot.motion_log.MotionLog`."""
+        from armctl.config.schema import JointType
+        from armctl.robot.motion_log import MotionLog
+
+        ex = self.robot.executor
+        arm = self.robot.arm
+        n = len(ex.idx)
+        times, cmds, meass = [], [], []
+        offset = 0.0
+        for t, cmd, meas in self.parts:
+            times.append(t + offset)
+            cmds.append(cmd.reshape(-1, n))
+            meass.append(meas.reshape(-1, n))
+            offset = float(times[-1][-1]) + 1.0 / ex.rate_hz
+        return MotionLog(
+            arm.name, ex.rate_hz, tuple(arm.joint_names[i] for i in ex.idx),
+            tuple(arm.joint_types[i] is JointType.PRISMATIC for i in ex.idx),
+            np.concatenate(times) if times else np.zeros(0),
+            np.concatenate(cmds) if cmds else np.zeros((0, n)),
+            np.concatenate(meass) if meass else np.zeros((0, n)))
+
+    def write(self, quiet: bool) -> None:
+        """Write the log (atomically) and say so on stderr."""
+        from armctl.robot.motion_log import write_log
+
+        path, log = self.path, self.log()
+        if log.t.size == 0:
+            print(f"armctl: motion log: no cycle was streamed; {path} was not written",
+                  file=sys.stderr)
+            return
+        write_log(path, log)
+        if not quiet:
+            print(f"armctl: motion log: {log.t.size} cycles written to {path}", file=sys.stderr)
+
+    def write_after_failure(self) -> None:
+        """Write the cycles that ran before a stop or a failure; never mask the failure."""
+        from armctl.errors import ArmctlError
+
+        try:
+            self.write(quiet=False)
+        except ArmctlError as exc:
+            print(f"armctl: the motion log was not written: {exc}", file=sys.stderr)
 
 
 def nothing_to_do(plan: MotionPlan, endpoints: bool = True,

@@ -13,6 +13,7 @@ from armctl.errors import BusError, InputError, UnknownNameError
 
 if TYPE_CHECKING:
     from armctl.config.schema import ArmSpec
+    from armctl.kinematics.model import KinematicModel
     from armctl.servo import ArmBus, JointState
     from armctl.servo.effective_limits import EffectiveLimits
 
@@ -274,8 +275,37 @@ def _limit_rows(eff: EffectiveLimits, deg: bool) -> list[list[str]]:
     return rows
 
 
+def _tool_pose(model: KinematicModel, st: JointState) -> dict[str, Any] | None:
+    """Pose of the tool frame at the read joints (FK).
+
+    ``None`` if a joint that moves the tool has no servo reading.
+
+    Returns:
+        ``{"frame", "xyz" [m], "rpy" [rad]}`` in the base frame.
+    """
+    from armctl.spatial import matrix_to_rpy
+
+    read = dict(zip(st.names, (float(x) for x in st.position), strict=True))
+    q = [read.get(n, math.nan) for n in model.joint_names]  # NaN: not on the bus
+    pose = model.fk(q)
+    if not all(math.isfinite(float(x)) for x in pose[:3, :].flat):
+        return None
+    return {"frame": model.frame_names[model.frame_index(None)],
+            "xyz": [float(x) for x in pose[:3, 3]],
+            "rpy": [float(x) for x in matrix_to_rpy(pose[:3, :3])]}
+
+
+def _tool_text(tool: dict[str, Any] | None) -> str:
+    if tool is None:
+        return "tool pose: - (a joint that moves the tool has no servo)"
+    xyz = " ".join(fmt(v, 4) for v in tool["xyz"])
+    rpy = " ".join(fmt(math.degrees(v), 2) for v in tool["rpy"])
+    return f"tool {tool['frame']!r}: xyz [m] {xyz}   rpy [deg] {rpy}"
+
+
 def cmd_status(args: argparse.Namespace) -> int:
     """Show servo status, once or live."""
+    from armctl.kinematics.model import KinematicModel
     from armctl.servo.effective_limits import limits_of_bus
 
     ab = _arm_bus(args)
@@ -284,17 +314,22 @@ def cmd_status(args: argparse.Namespace) -> int:
                "load [% stall]", "current [A]", "errors"]
     limit_headers = ["joint", "id", f"config [{unit}]", "calibration", "servo registers",
                      "effective", "bounded by (lower / upper)"]
+    spec = _spec(args)
+    model = KinematicModel(spec)
     with ab:
-        eff = limits_of_bus(_spec(args), ab)
+        eff = limits_of_bus(spec, ab)
         limits = (f"limits [{unit}] (effective: inside all three, {eff.margin_ticks} servo "
                   "ticks inside the measured ones)\n"
                   + table(limit_headers, _limit_rows(eff, args.deg)))
         while True:
             st = ab.read_state()
             rows, data = _status_rows(ab, st, args.deg)
-            text = table(headers, rows, [1, 2, 3, 4, 5, 6, 7]) + "\n\n" + limits
+            tool = _tool_pose(model, st)
+            text = (table(headers, rows, [1, 2, 3, 4, 5, 6, 7]) + "\n" + _tool_text(tool)
+                    + "\n\n" + limits)
             if args.once or args.json:
                 emit(args, {"arm": ab.arm_name, "port": ab.spec.port, "joints": data,
+                            "tool": tool,
                             "calibration": ab.calibration.hash if ab.calibration else None,
                             "limits": eff.as_dict()},
                      text)

@@ -13,7 +13,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from armctl.cli._bus_choice import add_bus_choice
-from armctl.cli._common import add_config, add_json, finite, load_arm_arg
+from armctl.cli._common import add_config, add_json, add_log_option, finite, load_arm_arg
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
@@ -52,6 +52,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="what to do when the command ends normally (default: hold); a stopped "
                         "motion always holds where it stopped")
     add_bus_choice(p)  # --port PORT | --sim
+    add_log_option(p)  # --log FILE.csv
     add_json(p)
     p.set_defaults(func=cmd_gripper, stop_signals=True)
 

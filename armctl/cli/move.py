@@ -10,6 +10,7 @@ from armctl.cli._bus_choice import add_bus_choice
 from armctl.cli._common import (
     add_config,
     add_json,
+    add_log_option,
     emit,
     finite,
     load_arm_arg,
@@ -39,6 +40,7 @@ def _add_move_options(p: argparse.ArgumentParser) -> None:
                    help="what to do when the command ends normally (default: hold); a stopped "
                         "motion always holds where it stopped")
     add_bus_choice(p)  # --port PORT | --sim
+    add_log_option(p)  # --log FILE.csv
     p.set_defaults(stop_signals=True)  # SIGINT, SIGTERM, SIGHUP stop the motion (cli main)
 
 

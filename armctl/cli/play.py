@@ -10,6 +10,7 @@ from armctl.cli._bus_choice import add_bus_choice
 from armctl.cli._common import (
     add_config,
     add_json,
+    add_log_option,
     emit,
     finite,
     is_keyframe_file,
@@ -53,6 +54,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="what to do when playback ends normally (default: hold); a stopped "
                         "motion always holds where it stopped")
     add_bus_choice(p)  # --port PORT | --sim
+    add_log_option(p)  # --log FILE.csv
     add_json(p)
     p.set_defaults(func=cmd_play, stop_signals=True)
 

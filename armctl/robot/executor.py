@@ -242,6 +242,9 @@ class Executor:
         self.explain_short = explain_short
         self.idx = np.array([model.joint_index(n) for n in bus.joint_names], dtype=int)
         self.last_command: Array | None = None
+        #: The cycles of the latest stream ``(t, commands, measurements)``, kept with
+        #: ``record=True`` even when it ended in a stop or a failure.
+        self.last_log: tuple[list[float], list[Array], list[Array]] = ([], [], [])
         prismatic = np.array([model.joint_types[i] is JointType.PRISMATIC for i in self.idx],
                              dtype=bool)
         #: Arrival tolerance per bus joint [rad]/[m].
@@ -381,6 +384,7 @@ class Executor:
         log_t: list[float] = []
         log_c: list[Array] = []
         log_m: list[Array] = []
+        self.last_log = (log_t, log_c, log_m)
         worst = np.zeros(self.idx.size)
         prev_cmd: Array | None = None
         overruns = 0

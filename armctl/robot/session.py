@@ -131,6 +131,11 @@ class Robot:
                                  self.motion.max_tracking_error,
                                  explain_short=self._short_cause, clock=self.clock)
         self.stop = StopRequest()
+        #: Called after every streamed motion, also one that ended in a stop or a failure, with
+        #: its cycles ``(t [s], commands, measurements)`` (bus joint order, [rad]/[m]); setting
+        #: it makes every motion record its cycles (e.g. for a motion log file).
+        self.on_motion_cycles: Callable[[tuple[list[float], list[Array], list[Array]]],
+                                        None] | None = None
         prismatic = np.array([t is JointType.PRISMATIC for t in self.arm.joint_types], dtype=bool)
         margin = np.array([j.margin for j in self.effective.joints])
         noise = 1.0 + _NOISE_TICKS / max(self.effective.margin_ticks, 1)
@@ -442,11 +447,18 @@ class Robot:
         """
         self.check_plan(plan)
         self.stop.clear()
+        listener = self.on_motion_cycles
+        if listener is not None:
+            record = True
+            self.executor.last_log = ([], [], [])
         try:
             return self.executor.run(plan, self.stop, on_cycle, record)
         except MotionStopped as stopped:
             self._locate(stopped)
             raise
+        finally:
+            if listener is not None:
+                listener(self.executor.last_log)
 
     def check_plan(self, plan: MotionPlan) -> None:
         """Refuse a plan this robot cannot run as it is (nothing is written to the servos).

@@ -589,7 +589,8 @@ class ServoBus:
         if reg is Register.ID and value != sid:
             target = value
             self.tables[value] = self.tables.pop(sid)
-        if self.vendor.eeprom_lock and table.is_eeprom(reg):
+        # a new baud rate is checked by the caller at that rate (the servo no longer hears this)
+        if self.vendor.eeprom_lock and table.is_eeprom(reg) and reg is not Register.BAUD_RATE:
             try:  # a locked EEPROM ignores writes silently (Feetech): read back
                 back = self.read(target, reg)
             except E.NoReplyError:

@@ -264,6 +264,12 @@ CORPUS: list[tuple[list[str], int]] = [
     (["torque", PLANAR, "on"], 2),
     (["sim", SO, "--scenario", "/nonexistent_armctl_scenario.yaml"], 2),
     (["calibrate", PLANAR], 2),
+    (["reboot", SO, "elbow"], 2),
+    (["reboot", PLANAR], 2),
+    (["reboot", SO, "--port", "/nonexistent_armctl_port"], 4),
+    (["setup-motors", SO], 2),
+    (["setup-motors", PLANAR], 2),
+    (["setup-motors", SO, "--port", "/nonexistent_armctl_port"], 4),
     # -- gripper, --port/--sim ----------------------------------------------------------------
     (["gripper", SO], 2),
     (["gripper", SO, "ajar"], 2),
@@ -290,6 +296,13 @@ CORPUS: list[tuple[list[str], int]] = [
     (["teleop", "so101_leader", SO, "--record", "{d}/r.yaml", "--every", "5"], 2),
     (["teleop", "so101_leader", "omx", "--json"], 2),
     (["teleop", "so101_leader", PLANAR], 2),
+    # -- --log of the motion commands, plot --------------------------------------------------
+    (["move-joints", SO, *Q6, "--log", "{existing}"], 2),
+    (["home", SO, "--log", "/nonexistent_dir_armctl/h.csv"], 2),
+    (["plot", "{kf}", "-o", "{d}/p.png"], 2),
+    (["plot", "{d}/no_log.csv", "-o", "{d}/p.png"], 2),
+    (["plot", "{kf}", "-o", "{d}/p.bmp"], 2),
+    (["plot", "{kf}"], 2),
 ]
 
 
