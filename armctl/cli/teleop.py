@@ -130,7 +130,11 @@ def cmd_teleop(args: argparse.Namespace) -> int:
     period = args.every / 1000.0 if args.every is not None else None
     if args.record:  # before anything opens
         TeleopRecorder.check_period(period)
-        check_output(args.record, existing)
+        check_output(args.record, existing, can_append=False)
+    if args.leader_port and args.leader_port == args.follower_port:
+        raise InputError(f"--leader-port and --follower-port are both {args.leader_port}: the "
+                         "leader and the follower need a bus each (two adapters, or two "
+                         "'armctl sim' ports)")
     leader_arm = _arm(args.leader, args.leader_port, args.sim, "--leader-port")
     follower_arm = _arm(args.follower, args.follower_port, args.sim, "--follower-port")
     paired_joints(leader_arm.name, _servo_joints(leader_arm), follower_arm.name,

@@ -157,6 +157,15 @@ def plan_run(q: npt.ArrayLike, limits: MotionLimits, kind: Interpolation,
     pts = np.asarray(q, dtype=float)
     if pts.ndim != 2 or pts.shape[0] < 2:
         raise PlanningError("a run needs at least two keyframes")
+    if durations is None and kind is not Interpolation.LINEAR:
+        # A keyframe equal to the one before (a pause in a recording) adds no segment: the
+        # spline goes through the distinct ones and passes the repeats at the same time.
+        keep = np.concatenate([[True], np.any(np.diff(pts, axis=0) != 0.0, axis=1)])
+        if not keep.all():
+            if int(keep.sum()) < 2:
+                return _linear_run(pts, limits, None)
+            traj, knots = plan_run(pts[keep], limits, kind)
+            return traj, knots[np.cumsum(keep) - 1]
     if kind is Interpolation.LINEAR:
         return _linear_run(pts, limits, None if durations is None else np.asarray(durations))
     traj = _spline_run(pts, limits, kind, durations)

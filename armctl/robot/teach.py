@@ -43,8 +43,10 @@ class ExistingFile(Enum):
     """Add the new keyframes after the file's own (same arm and joints; its units are kept)."""
 
 
-def check_output(path: str | Path, existing: ExistingFile) -> Path:
+def check_output(path: str | Path, existing: ExistingFile, can_append: bool = True) -> Path:
     """Check that a teach session may write ``path``, before anything is opened.
+
+    ``can_append``: whether the caller offers appending (the refusal names only what it offers).
 
     Raises:
         InputError: If the file exists and ``existing`` is :attr:`ExistingFile.REFUSE`, if the
@@ -67,8 +69,9 @@ def check_output(path: str | Path, existing: ExistingFile) -> Path:
         raise InputError(f"{p} is an arm config (armctl YAML or URDF), not a keyframe file; "
                          "teaching would replace it: choose another file name for the keyframes")
     if existing is ExistingFile.REFUSE:
-        raise InputError(f"{p} exists already: pass --append to add to its keyframes, --force to "
-                         "overwrite it, or choose another name")
+        how = ("pass --append to add to its keyframes, --force to overwrite it"
+               if can_append else "pass --force to overwrite it")
+        raise InputError(f"{p} exists already: {how}, or choose another name")
     return p
 
 

@@ -255,7 +255,7 @@ class TeleopRecorder:
         if existing is ExistingFile.APPEND:
             raise InputError("teleoperation records into a new file (or overwrites one)")
         self.check_period(period)
-        self.path = check_output(path, existing)
+        self.path = check_output(path, existing, can_append=False)
         self.follower = follower
         self.period = period
         arm = follower.arm
@@ -263,6 +263,11 @@ class TeleopRecorder:
         self._cols = np.array([arm.joint_index(n) for n in self.joints], dtype=int)
         grip = follower.gripper_joints
         self._grip = arm.joint_index(grip[0]) if grip else None
+        #: A sampled gripper value is recorded when it moved by more than this [rad]/[m] (2 % of
+        #: its range) since the last one recorded: a gripper event of the program.
+        self._grip_step = (0.02 * float(arm.upper[self._grip] - arm.lower[self._grip])
+                           if self._grip is not None else math.inf)
+        self._last_grip: float | None = None
         self.program = KeyframeProgram(arm.name, self.joints, (), follower.calibration_hash(),
                                        description="recorded by teleoperation")
         self._pending: list[str] = []
@@ -296,8 +301,14 @@ class TeleopRecorder:
         self.flush_marks(q)
         if self.period is not None and (self._next is None or t >= self._next - 1e-9):
             self._next = t + self.period if self._next is None else self._next + self.period
+            grip: float | None = None
+            if self._grip is not None:
+                value = float(q[self._grip])
+                if self._last_grip is None or abs(value - self._last_grip) > self._grip_step:
+                    grip = self._last_grip = value
             self.program = self.program.append(
-                Keyframe(q=tuple(float(v) for v in q[self._cols]), time=round(t, 4)))
+                Keyframe(q=tuple(float(v) for v in q[self._cols]), time=round(t, 4),
+                         gripper=grip))
 
     def flush_marks(self, q: Array) -> None:
         """Record the keyframes asked for and not yet recorded, at joints ``q`` (arm order)."""

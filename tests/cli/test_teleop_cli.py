@@ -56,6 +56,7 @@ def test_scale_option_clamps_and_says_so(capsys: pytest.CaptureFixture[str]) -> 
     (["--scale", "elbow_flex"], "JOINT=SCALE"),
     (["--every", "20"], "--every needs --record"),
     (["--rate", "0"], "--rate"),
+    (["--leader-port", "/dev/armctl-x", "--follower-port", "/dev/armctl-x"], "need a bus each"),
 ])
 def test_bad_options_are_one_clear_error(capsys: pytest.CaptureFixture[str], argv: list[str],
                                          message: str) -> None:

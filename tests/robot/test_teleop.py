@@ -347,3 +347,32 @@ def test_a_second_stop_request_holds_at_once() -> None:
         # decelerated past it as a controlled stop would be
         assert float(goal[j]) <= cmds[-1] + 1e-9
         assert all(s.torque for s in sim(fol).servos)
+
+
+def test_a_sampled_recording_keeps_the_grippers_moves(tmp_path: Path) -> None:
+    """Gripper changes become the program's gripper events; a still gripper adds no stops."""
+    traj = tmp_path / "traj.yaml"
+    with pair("so101_leader", "so101") as (lead, fol):
+        lead.bus.set_torque(False)
+        rec = TeleopRecorder(fol, traj, period=0.05)
+        tele = Teleop(lead, fol, TeleopOptions(duration=1.5), rec)
+        tele.start()
+        tele.run(lambda c: guide(lead, {"gripper": 0.45 if c.t > 0.5 else 0.0}))
+    timed = load_keyframes(traj, load_arm("so101"))
+    grips = [k.gripper for k in timed.keyframes if k.gripper is not None]
+    assert len(timed.keyframes) >= 25
+    assert 2 <= len(grips) < len(timed.keyframes) // 2  # the start value and the change
+    assert grips[-1] == pytest.approx(0.45, abs=0.04)  # within one event step (2 % of range)
+    with Robot.open("so101", exit_policy=ExitPolicy.HOLD) as robot:
+        robot.play(timed)
+        assert follower_joints(robot)["gripper"] == pytest.approx(grips[-1], abs=0.02)
+
+
+def test_an_existing_recording_is_refused_naming_only_force(tmp_path: Path) -> None:
+    out = tmp_path / "rec.yaml"
+    out.write_text("keep me\n")
+    with pair("so101_leader", "so101") as (_, fol), \
+            pytest.raises(InputError, match="exists already") as info:
+        TeleopRecorder(fol, out)
+    assert "--force" in str(info.value) and "--append" not in str(info.value)
+    assert out.read_text() == "keep me\n"
