@@ -91,7 +91,10 @@ def test_range_checked_before_sending_and_by_the_servo(dxl_pair: Pair) -> None:
 
 def test_status_return_level_and_broadcast_silence(dxl_pair: Pair) -> None:
     sim, bus = dxl_pair
-    bus.write(3, Register.STATUS_RETURN_LEVEL, 1)
+    # Set on the servo itself: a write of it whose reply came late would be retried, and the
+    # retry (at level 1 already) gets no reply at all.
+    sim.servo(3).set(Register.STATUS_RETURN_LEVEL, 1)
+    assert bus.read(3, Register.STATUS_RETURN_LEVEL) == 1
     trace = sim.start_trace()
     bus.retries = 0
     with pytest.raises(NoReplyError):
