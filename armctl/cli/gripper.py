@@ -12,8 +12,8 @@ import argparse
 import math
 from typing import TYPE_CHECKING, Any
 
-from armctl.cli._bus_choice import add_bus_choice
-from armctl.cli._common import add_config, add_json, add_log_option, finite, load_arm_arg
+from armctl.cli._common import add_config, add_json, load_arm_arg
+from armctl.cli.move import add_move_options
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
@@ -45,16 +45,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     units.add_argument("--deg", action="store_true", help="VALUE in degrees (rotary gripper)")
     units.add_argument("--mm", action="store_true",
                        help="VALUE in millimetres (prismatic gripper)")
-    p.add_argument("--speed", type=finite, default=None,
-                   help="speed factor of the joint limits, 0.01 to 1 (default: the config's)")
-    p.add_argument("--dry-run", action="store_true", help="print the plan, move nothing")
-    p.add_argument("--exit-policy", choices=["hold", "park", "release"], default=None,
-                   help="what to do when the command ends normally (default: hold); a stopped "
-                        "motion always holds where it stopped")
-    add_bus_choice(p)  # --port PORT | --sim
-    add_log_option(p)  # --log FILE.csv
+    add_move_options(p)  # --speed, --dry-run, --exit-policy, --port | --sim, --log
     add_json(p)
-    p.set_defaults(func=cmd_gripper, stop_signals=True)
+    p.set_defaults(func=cmd_gripper)
 
 
 def gripper_indices(arm: Arm) -> list[int]:

@@ -32,7 +32,8 @@ if TYPE_CHECKING:
 ORDER = 40
 
 
-def _add_move_options(p: argparse.ArgumentParser) -> None:
+def add_move_options(p: argparse.ArgumentParser) -> None:
+    """The options every streamed motion verb shares: speed, dry run, exit policy, bus, log."""
     p.add_argument("--speed", type=finite, default=None,
                    help="speed factor of the joint limits, 0.01 to 1 (default: the config's)")
     p.add_argument("--dry-run", action="store_true", help="print the plan, move nothing")
@@ -57,14 +58,14 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     add_config(p)
     p.add_argument("values", nargs="+", metavar="Q", help="one value per joint [rad] or [m]")
     p.add_argument("--deg", action="store_true", help="rotary joint values in degrees")
-    _add_move_options(p)
+    add_move_options(p)
     add_json(p)
     p.set_defaults(func=cmd_move_joints)
 
     for name, what in (("home", "the 'home' pose"), ("park", "the 'park' rest pose")):
         p = sub.add_parser(name, help=f"move to {what}")
         add_config(p)
-        _add_move_options(p)
+        add_move_options(p)
         add_json(p)
         p.set_defaults(func=cmd_named, pose=name)
 
@@ -90,7 +91,7 @@ def _move_to_pose_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force-pose", action="store_true",
                    help="move to a full pose (--rpy/--quat) even when fewer than 6 joints move "
                         "the frame (such a pose is reachable only on a 5-DOF subset)")
-    _add_move_options(p)
+    add_move_options(p)
     add_json(p)
 
 
