@@ -13,6 +13,7 @@ from armctl.config.schema import ArmSpec
 from armctl.kinematics.model import KinematicModel
 
 if TYPE_CHECKING:
+    from armctl.collision.model import CollisionModel
     from armctl.ik import GoalLike, IKOptions, IKResult
     from armctl.ik.analytic import IKSolutions
     from armctl.ik.goals import Goal
@@ -40,6 +41,7 @@ class Arm(KinematicModel):
         *,
         options: IKOptions | None = None,
         constraints: Sequence[Any] = (),
+        avoid: CollisionModel | None = None,
     ) -> IKResult:
         """Inverse kinematics: joint values that bring frames to goals.
 
@@ -51,11 +53,15 @@ class Arm(KinematicModel):
             solver: Solver name, see :func:`armctl.ik.available_solvers`.
             options: Iteration and time budgets, restarts and RNG seed.
             constraints: Extra constraints for solvers that accept them (``"nlp"``).
+            avoid: A collision checker (``CollisionModel.of(arm)``; overrides
+                ``options.avoid``): answers in contact are discarded and the search restarts;
+                ``None``: collisions are not checked (unless ``options.avoid`` is set).
 
         Returns:
-            The result. ``result.success`` is True only if every goal is met within tolerance
-            and ``result.q`` is inside the joint limits; otherwise ``result.q`` is the closest
-            configuration found and ``result.status`` says why.
+            The result. ``result.success`` is True only if every goal is met within tolerance,
+            ``result.q`` is inside the joint limits and (with a checker) free of contact;
+            otherwise ``result.q`` is the closest configuration found and ``result.status``
+            says why (``COLLIDES`` with ``result.contact`` when every answer found collides).
 
         Raises:
             UnsupportedGoalError: For goals or constraints the solver cannot take (its
@@ -63,7 +69,8 @@ class Arm(KinematicModel):
         """
         from armctl.ik import solve
 
-        return solve(self, goal, q0, solver, options=options, constraints=constraints)
+        return solve(self, goal, q0, solver, options=options, constraints=constraints,
+                     avoid=avoid)
 
     def ik_all(
         self,
@@ -72,6 +79,7 @@ class Arm(KinematicModel):
         frame: str | None = None,
         *,
         variants: bool = False,
+        avoid: CollisionModel | None = None,
     ) -> IKSolutions:
         """Every distinct inverse kinematics solution of a goal, in closed form.
 
@@ -84,17 +92,22 @@ class Arm(KinematicModel):
             variants: Also list every 2 pi variant of each solution that fits in the joint
                 ranges (by default each solution is one row: its variant inside the limits
                 nearest to ``q_ref``).
+            avoid: A collision checker (``CollisionModel.of(arm)``): each solution is marked
+                free or in contact (``contacts``, ``collision_free``), and ``valid`` and
+                ``best`` keep the free ones only.
 
         Returns:
-            The solutions, each marked inside or outside the joint limits, with its FK residual,
-            and whether the goal is singular (see :class:`armctl.ik.analytic.IKSolutions`).
+            The solutions, each marked inside or outside the joint limits, with its FK residual
+            (and its contact when checked), and whether the goal is singular (see
+            :class:`armctl.ik.analytic.IKSolutions`).
 
         Raises:
             NoDecompositionError: If the arm (or the goal type) has no closed form.
         """
         from armctl.ik.analytic import ik_all
 
-        return ik_all(self, pose, q_ref, frame, variants=variants)
+        sols = ik_all(self, pose, q_ref, frame, variants=variants)
+        return sols if avoid is None else sols.checked(avoid)
 
 
 def load_arm(path: str | Path, tip: str | None = None) -> Arm:

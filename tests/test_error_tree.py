@@ -19,6 +19,7 @@ import pytest
 import armctl
 from armctl.arm import load_arm
 from armctl.cli import main
+from armctl.collision.contact import Contact, ContactKind
 from armctl.errors import ArmctlError, ConfigError, KeyPath, UnknownNameError, json_safe
 from armctl.ik import PositionGoal
 from armctl.ik.errors import IKFailedError
@@ -97,6 +98,13 @@ def _result() -> Any:
 #: Constructor arguments of every exception class that defines ``__init__`` (keyed by it).
 SAMPLES: dict[str, tuple[Any, ...]] = {
     "armctl.errors.ArmctlError": ("something went wrong",),
+    "armctl.collision.errors.CollisionError": (
+        "move to pose", Contact(ContactKind.SCENE, "gripper", "table", -0.01, 0.005,
+                                np.array([0.1, 0.2]), 0.5, 3, -0.02, 0.7),
+        ("shoulder", "elbow"), "choose another goal"),
+    "armctl.collision.errors.MissingExtraError": ("exact distances", "coal", "collision"),
+    "armctl.motion.errors.DetourError": ("no path found", 1.0, 1.2, "RRT-Connect (ompl)",
+                                         "give it more time"),
     "armctl.errors.ConfigError": ("lower limit above upper",
                                   KeyPath(Path("arm.yaml"), ("joints", 2, "limits"), 14, "elbow"),
                                   "swap them"),

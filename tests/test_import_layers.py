@@ -166,6 +166,7 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"spatial", "clock", "atomic_write", "servo_tables"}),
     frozenset({"config"}),
     frozenset({"kinematics"}),
+    frozenset({"collision"}),
     frozenset({"ik"}),
     frozenset({"arm"}),
     frozenset({"motion"}),

@@ -30,25 +30,29 @@ def open_robot(args: argparse.Namespace, arm: Arm, hold: bool = False) -> Robot:
     on, and a dry run never switches torque on. With ``--exit-policy park`` the park pose is
     checked against the config's limits before the bus opens and against the effective limits
     right after, before anything moves. ``--port PORT`` and ``--sim`` choose the bus (see
-    :mod:`armctl.cli._bus_choice`).
+    :mod:`armctl.cli._bus_choice`); ``--scene FILE`` the scene plans are checked against (see
+    :mod:`armctl.cli._scene`).
 
     Raises:
+        ConfigError: A bad ``--scene`` file.
         InputError: ``--exit-policy park`` for an arm without a 'park' pose; ``--port`` for a
             config without a ``bus:`` section.
         JointLimitError: A 'park' pose outside the config's or the effective limits.
     """
     from armctl.cli import _checks
     from armctl.cli._bus_choice import arm_on_chosen_bus
+    from armctl.cli._scene import scene_arg
     from armctl.config.motion import ExitPolicy
     from armctl.robot import Robot
 
+    scene = scene_arg(args, arm)  # --scene FILE, read before the bus opens
     arm = arm_on_chosen_bus(args, arm)  # --port PORT / --sim
     policy = ExitPolicy(getattr(args, "exit_policy", None) or "hold")
     if policy is ExitPolicy.PARK:
         _checks.check_park_pose(arm)
     speed = getattr(args, "speed", None)
     robot = Robot.open(arm, speed=speed if speed is not None and speed <= 1 else None,
-                       exit_policy=policy, hold=hold)
+                       exit_policy=policy, hold=hold, scene=scene)
     try:
         if policy is ExitPolicy.PARK:
             robot.effective.check(robot.arm.named_pose("park"),

@@ -9,9 +9,11 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from armctl.cli._common import add_config, add_json, emit, fmt, positive, table
+from armctl.cli._scene import add_scene_option
 from armctl.errors import BusError, InputError, UnknownNameError
 
 if TYPE_CHECKING:
+    from armctl.config.scene import SceneSpec
     from armctl.config.schema import ArmSpec
     from armctl.kinematics.model import KinematicModel
     from armctl.servo import ArmBus, JointState
@@ -46,6 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--once", action="store_true", help="print one reading and exit")
     p.add_argument("--interval", type=positive, default=0.2, help="refresh period [s]")
     p.add_argument("--deg", action="store_true", help="show rotary joints in degrees")
+    add_scene_option(p)  # --scene FILE: the clearance is measured in it
     add_json(p)
     p.set_defaults(func=cmd_status)
 
@@ -303,8 +306,25 @@ def _tool_text(tool: dict[str, Any] | None) -> str:
     return f"tool {tool['frame']!r}: xyz [m] {xyz}   rpy [deg] {rpy}"
 
 
+def _clearance(model: KinematicModel, st: JointState, scene: SceneSpec | None
+               ) -> tuple[dict[str, Any] | None, str]:
+    """The least clearance at the read joints: JSON fields and the text line.
+
+    ``None`` and a dash when a joint of the arm has no servo reading.
+    """
+    from armctl.cli._scene import clearance_data, clearance_text, scene_clearance
+
+    read = dict(zip(st.names, (float(x) for x in st.position), strict=True))
+    q = [read.get(n, math.nan) for n in model.joint_names]
+    if not all(math.isfinite(v) for v in q):
+        return None, "clearance: - (a joint has no servo reading)"
+    c = scene_clearance(model, q, scene)
+    return clearance_data(c), clearance_text(c)
+
+
 def cmd_status(args: argparse.Namespace) -> int:
     """Show servo status, once or live."""
+    from armctl.cli._scene import scene_arg
     from armctl.kinematics.model import KinematicModel
     from armctl.servo.effective_limits import limits_of_bus
 
@@ -316,6 +336,7 @@ def cmd_status(args: argparse.Namespace) -> int:
                      "effective", "bounded by (lower / upper)"]
     spec = _spec(args)
     model = KinematicModel(spec)
+    scene = scene_arg(args, model)  # --scene FILE: the clearance is measured in it
     with ab:
         eff = limits_of_bus(spec, ab)
         limits = (f"limits [{unit}] (effective: inside all three, {eff.margin_ticks} servo "
@@ -325,11 +346,12 @@ def cmd_status(args: argparse.Namespace) -> int:
             st = ab.read_state()
             rows, data = _status_rows(ab, st, args.deg)
             tool = _tool_pose(model, st)
+            clearance, clearance_line = _clearance(model, st, scene)
             text = (table(headers, rows, [1, 2, 3, 4, 5, 6, 7]) + "\n" + _tool_text(tool)
-                    + "\n\n" + limits)
+                    + "\n" + clearance_line + "\n\n" + limits)
             if args.once or args.json:
                 emit(args, {"arm": ab.arm_name, "port": ab.spec.port, "joints": data,
-                            "tool": tool,
+                            "tool": tool, "clearance": clearance,
                             "calibration": ab.calibration.hash if ab.calibration else None,
                             "limits": eff.as_dict()},
                      text)

@@ -22,6 +22,7 @@ from armctl.cli._common import (
     table,
 )
 from armctl.cli._parser import add_later
+from armctl.cli._scene import add_scene_option, scene_arg
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
@@ -30,6 +31,8 @@ if TYPE_CHECKING:
     import numpy as np
 
     from armctl.arm import Arm
+    from armctl.collision.contact import Contact
+    from armctl.collision.model import CollisionModel
     from armctl.ik import Goal, IKOptions, IKResult
 
 ORDER = 20
@@ -43,8 +46,10 @@ axis (or --axis) at a point and leaves the position free (2 DOF, e.g. a wrist ca
 """
 
 _EPILOG = """\
-exit codes: 0 solved (every goal met within tolerance, inside the joint limits); 2 bad input;
-3 no solution: the goal was not reached (unreachable, or no start converged within the budgets).
+exit codes: 0 solved (every goal met within tolerance, inside the joint limits, free of contact
+with the arm itself, the table and the scene's obstacles); 2 bad input; 3 no solution: the goal
+was not reached (unreachable, or no start converged within the budgets), or every answer found
+collides (the contact is named). --no-collisions turns the collision check off.
 With exit code 3 the closest configuration found, its pose and the remaining error are printed
 (on stderr; with --json as "error.details" on stdout). Angles are radians unless --deg.
 """
@@ -58,7 +63,7 @@ class IKRequest:
         goals: The goals.
         q0: Start ``(dof,)`` or ``None`` (the middle of the ranges).
         solver: Registered solver name.
-        options: Budgets and seed.
+        options: Budgets, seed and collision checker (``options.avoid``).
         constraints: Extra constraints (solver ``nlp``).
     """
 
@@ -86,12 +91,13 @@ def _ik_arguments(p: argparse.ArgumentParser) -> None:
                         "the frame (such a pose is reachable only on a 5-DOF subset)")
     add_solver_arguments(p)
     add_constraint_arguments(p)
+    add_collision_arguments(p)
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
     p.add_argument("--all", action="store_true",
                    help="with --solver analytic: list every distinct solution (nearest to --from "
-                        "first), each with its residual and whether it is inside the joint "
-                        "limits; a solution is shown by its variant inside the limits nearest to "
-                        "--from")
+                        "first), each with its residual, whether it is inside the joint "
+                        "limits and whether it is free of contact; a solution is shown by its "
+                        "variant inside the limits nearest to --from")
     p.add_argument("--variants", action="store_true",
                    help="with --all: also list the 2 pi variants of each solution (joint values "
                         "a full turn apart that fit in the limits)")
@@ -158,6 +164,46 @@ def add_constraint_arguments(p: argparse.ArgumentParser) -> None:
                    help="YAML goals file with goals and constraints (see docs/nlp.md)")
 
 
+def add_collision_arguments(p: argparse.ArgumentParser) -> None:
+    """``--scene`` and ``--no-collisions``: what answers are checked against."""
+    add_scene_option(p)
+    p.add_argument("--no-collisions", action="store_true",
+                   help="do not check answers for contact (with the arm itself, the table or "
+                        "the obstacles)")
+
+
+def build_checker(args: argparse.Namespace, arm: Arm) -> CollisionModel | None:
+    """The collision checker the arguments ask for (``None`` with --no-collisions).
+
+    Raises:
+        InputError: For --scene together with --no-collisions.
+        ConfigError: For a scene file that cannot be read (file, line, key and fix).
+    """
+    if getattr(args, "no_collisions", False):
+        if getattr(args, "scene", None):
+            raise InputError("--scene gives obstacles to check against, --no-collisions turns "
+                             "the check off: give one of them")
+        return None
+    from armctl.collision.model import CollisionModel
+
+    return CollisionModel.of(arm, scene_arg(args, arm))
+
+
+def contact_text(contact: Contact | None) -> str:
+    """``"free"``, or ``"collides: a-b 3.2 mm"`` (the pair and how deep inside its padding)."""
+    if contact is None:
+        return "free"
+    return f"collides: {contact.a}-{contact.b} {contact.depth * 1000:.1f} mm"
+
+
+def contact_data(contact: Contact | None) -> dict[str, Any] | None:
+    """A contact as JSON-safe data (``None`` for none)."""
+    if contact is None:
+        return None
+    return {"pair": [contact.a, contact.b], "kind": contact.kind.value,
+            "distance": contact.distance, "depth": contact.depth, "padding": contact.padding}
+
+
 def build_constraints(args: argparse.Namespace) -> tuple[Any, ...]:
     """The constraints given by --plane, --halfspace and --keep-out."""
     from armctl.ik.nlp import InHalfSpace, KeepOutBox, KeepOutSphere, OnPlane
@@ -220,7 +266,7 @@ def _goal_flags(args: argparse.Namespace) -> bool:
 
 
 def build_request(args: argparse.Namespace, arm: Arm) -> IKRequest:
-    """The solver request described by all arguments (goals, start, solver, budgets)."""
+    """The solver request: goals, start, solver, budgets and collision checker."""
     from armctl.ik import IKOptions
     from armctl.ik.registry import solver_for
 
@@ -240,7 +286,7 @@ def build_request(args: argparse.Namespace, arm: Arm) -> IKRequest:
     if args.q0 is not None:
         q0 = arm.check_limits(parse_angles(args.q0, args.deg, arm, "--from"), "--from")
     options = IKOptions(max_iterations=args.max_iterations, time_limit=args.time_limit,
-                        restarts=args.restarts, seed=args.seed)
+                        restarts=args.restarts, seed=args.seed, avoid=build_checker(args, arm))
     return IKRequest(goals, q0, solver, options, constraints)
 
 
@@ -248,6 +294,7 @@ def cmd_ik(args: argparse.Namespace) -> int:
     """Solve and print the joint values, the reached pose and the residual error."""
     from armctl.errors import JointLimitError
     from armctl.ik.errors import IKFailedError
+    from armctl.ik.result import IKStatus
     from armctl.servo.calibration import load_calibration
     from armctl.servo.effective_limits import effective_limits
 
@@ -264,14 +311,21 @@ def cmd_ik(args: argparse.Namespace) -> int:
     if args.variants and not args.all:
         raise InputError("--variants lists the 2 pi variants of the solutions of --all: give "
                          "--all too")
+    checker = req.options.avoid
     if args.all:
-        return _cmd_all(args, arm, req)
+        return _cmd_all(args, arm, req, checker)
     _warm_up(arm, req)
     res = arm.ik(list(req.goals), req.q0, req.solver, options=req.options,
                  constraints=req.constraints)
     data, text = _report(arm, req, res, args.deg)
+    data["collisions_checked"] = checker is not None
+    if checker is not None:
+        data["contact"] = contact_data(res.contact)
     if not res.success:
         hints = [h for h in (reach_hint(arm, g) for g in req.goals) if h]
+        if res.status is IKStatus.COLLIDES:
+            hints.append("every answer found brings a link into contact; --no-collisions "
+                         "solves without the check")
         message = "; ".join([f"no solution: {res.message}", *hints])
         closest = ("closest configuration found "
                    f"({res.iterations} iterations, {res.restarts} restarts, "
@@ -402,8 +456,12 @@ def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[st
     return data, "\n".join(lines)
 
 
-def _cmd_all(args: argparse.Namespace, arm: Arm, req: IKRequest) -> int:
-    """``--all``: every closed-form solution, nearest to the start first."""
+def _cmd_all(args: argparse.Namespace, arm: Arm, req: IKRequest,
+             checker: CollisionModel | None) -> int:
+    """``--all``: every closed-form solution, nearest to the start first.
+
+    With a collision checker each solution is marked free or colliding (the pair and depth).
+    """
     from armctl.config.schema import JointType
     from armctl.errors import NoSolutionError
     from armctl.ik.analytic import acceptance, ik_all
@@ -419,42 +477,53 @@ def _cmd_all(args: argparse.Namespace, arm: Arm, req: IKRequest) -> int:
     goal = req.goals[0]
     every = ik_all(arm, goal, q_ref=req.q0, tol=acceptance(goal),  # as the single answer
                    variants=True)
+    if checker is not None:
+        every = every.checked(checker)
     prismatic = [t is JointType.PRISMATIC for t in arm.joint_types]
     distinct = every.distinct([not p for p in prismatic])  # near-duplicates merged
     sols = every if args.variants else distinct
     units = ["m" if p else "deg" if args.deg else "rad" for p in prismatic]
     scale = [1.0 if p else 180.0 / math.pi if args.deg else 1.0 for p in prismatic]
     digits = [6 if p else 4 for p in prismatic]
+    contacts = sols.contacts if sols.contacts is not None else (None,) * len(sols)
     rows = [[str(i + 1), "yes" if ok else "no",
              *(fmt(v * k, d) for v, k, d in zip(q, scale, digits, strict=True)), f"{ep:.1e}",
-             f"{er:.1e}"]
-            for i, (q, ok, ep, er) in enumerate(zip(sols.q, sols.within_limits,
-                                                     sols.position_error, sols.rotation_error,
-                                                     strict=True))]
+             f"{er:.1e}", *([contact_text(c)] if checker is not None else [])]
+            for i, (q, ok, ep, er, c) in enumerate(zip(sols.q, sols.within_limits,
+                                                        sols.position_error,
+                                                        sols.rotation_error, contacts,
+                                                        strict=True))]
     idle = not_involved(arm, req.goals)
     variants = ("" if len(every) == len(distinct) else
                 f", {len(every)} rows with their 2 pi variants" if args.variants else
                 f"; --variants lists all {len(every)} rows (with the 2 pi variants and the "
                 "near-duplicate representatives)" if every.singular else
                 f"; --variants lists their {len(every)} rows with the 2 pi variants")
+    free = ("" if distinct.contacts is None else
+            f", {int((distinct.within_limits & distinct.collision_free).sum())} of them free "
+            "of contact")
     head = (f"{len(distinct)} distinct solutions ({int(distinct.within_limits.sum())} inside "
-            f"the limits){variants}; family: {sols.family}"
+            f"the limits){free}{variants}; family: {sols.family}"
             + (f"; held at --from: {', '.join(sols.free)}" if sols.free else "")
             + ("; SINGULAR goal: a continuum of solutions, representatives at least "
                f"{CONTINUUM[0]:g} rad apart shown" if sols.singular else ""))
     data = {"family": sols.family, "singular": sols.singular, "free": list(sols.free),
             "not_involved": idle,
             "count": len(sols), "distinct": len(distinct), "with_variants": len(every),
-            "variants_listed": bool(args.variants), "solutions": [
+            "variants_listed": bool(args.variants), "collisions_checked": checker is not None,
+            "solutions": [
                 {"q": q, "joints": arm.values_by_name(q), "within_limits": bool(ok),
-                 "position_error": float(ep), "rotation_error": float(er)}
-                for q, ok, ep, er in zip(sols.q, sols.within_limits, sols.position_error,
-                                         sols.rotation_error, strict=True)]}
+                 "position_error": float(ep), "rotation_error": float(er),
+                 **({"collision_free": c is None, "contact": contact_data(c)}
+                    if checker is not None else {})}
+                for q, ok, ep, er, c in zip(sols.q, sols.within_limits, sols.position_error,
+                                            sols.rotation_error, contacts, strict=True)]}
     if not len(sols):
         raise NoSolutionError(f"no solution: the goal is out of reach ({sols.family})")
     text = head + "\n\n" + table(["#", "in limits", *(f"{n} [{u}]" for n, u in
                                                        zip(arm.joint_names, units, strict=True)),
-                                   "pos err [m]", "rot err [rad]"], rows,
+                                   "pos err [m]", "rot err [rad]",
+                                   *(["collisions"] if checker is not None else [])], rows,
                                   right=list(range(2, arm.dof + 4)))
     if idle:
         text += f"\n{_NOT_INVOLVED}: {', '.join(idle)}"

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from armctl.cli._common import add_config, add_json, emit, fmt, load_arm_arg, parse_angles, table
+from armctl.cli._scene import add_scene_option
 
 if TYPE_CHECKING:
     import numpy as np
@@ -36,6 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--frame", help="frame name (default: the tool frame)")
     p.add_argument("--deg", action="store_true", help="rotary joint values in degrees")
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
+    add_scene_option(p)  # --scene FILE: the clearance is measured in it
     add_json(p)
     p.set_defaults(func=cmd_fk)
 
@@ -179,10 +181,18 @@ def _tree_lines(spec: Any) -> list[str]:
 
 
 def cmd_fk(args: argparse.Namespace) -> int:
-    """Print the pose of a frame."""
+    """Print the pose of a frame and the least clearance of the arm in its scene."""
+    from armctl.cli._scene import (
+        clearance_data,
+        clearance_text,
+        scene_arg,
+        scene_clearance,
+        self_checked,
+    )
     from armctl.spatial import matrix_to_quat, matrix_to_rpy
 
     arm = load_arm_arg(args)
+    scene = scene_arg(args, arm)
     q = parse_angles(args.q, args.deg, arm)
     frame = args.frame or arm.tool
     pose = arm.fk(q, frame) + 0.0  # + 0.0 turns -0.0 into 0.0
@@ -198,10 +208,15 @@ def cmd_fk(args: argparse.Namespace) -> int:
         "matrix:",
     ]
     lines += ["  " + "  ".join(fmt(v, 6).rjust(10) for v in row) for row in pose]
+    # without a collision matrix only the scene: sampling one would load the compiler
+    clearance = scene_clearance(arm, q, scene, sample=False)
+    links = self_checked(arm)
+    lines.append(clearance_text(clearance, links))
     for text in outside.values():
         lines.append(f"note: {text}")
     emit(args, {"frame": frame, "q": q, "position": pose[:3, 3], "rpy": rpy, "quaternion": quat,
                 "matrix": pose, "within_limits": not outside,
+                "clearance": clearance_data(clearance), "link_pairs_checked": links,
                 "outside_limits": [{"joint": n, "value": float(q[arm.joint_index(n)]),
                                     "lower": float(arm.lower[arm.joint_index(n)]),
                                     "upper": float(arm.upper[arm.joint_index(n)])}

@@ -19,6 +19,7 @@ from armctl.cli._common import (
 )
 from armctl.cli._parser import add_later
 from armctl.cli._progress import Progress
+from armctl.cli._scene import add_scene_option
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
@@ -27,13 +28,14 @@ if TYPE_CHECKING:
     from armctl.arm import Arm
     from armctl.ik import Goal, IKResult
     from armctl.motion import MotionPlan
+    from armctl.motion.detour import DetourOptions
     from armctl.robot import MoveReport, Robot
 
 ORDER = 40
 
 
 def add_move_options(p: argparse.ArgumentParser) -> None:
-    """The options every streamed motion verb shares: speed, dry run, exit policy, bus, log."""
+    """The options every streamed motion verb shares: speed, dry run, exit policy, bus, scene."""
     p.add_argument("--speed", type=finite, default=None,
                    help="speed factor of the joint limits, 0.01 to 1 (default: the config's)")
     p.add_argument("--dry-run", action="store_true", help="print the plan, move nothing")
@@ -42,7 +44,18 @@ def add_move_options(p: argparse.ArgumentParser) -> None:
                         "motion always holds where it stopped")
     add_bus_choice(p)  # --port PORT | --sim
     add_log_option(p)  # --log FILE.csv
+    add_scene_option(p)  # --scene FILE
     p.set_defaults(stop_signals=True)  # SIGINT, SIGTERM, SIGHUP stop the motion (cli main)
+
+
+def add_plan_option(p: argparse.ArgumentParser) -> None:
+    """Add ``--plan``: find a collision-free joint path when the direct move collides."""
+    p.add_argument("--plan", action="store_true",
+                   help="when the direct joint move collides, find a collision-free joint path "
+                        "around the obstacles (sampling-based planner; docs/collision.md); "
+                        "nothing moves when none is found in time")
+    p.add_argument("--plan-time", type=positive, default=None, metavar="S",
+                   help="with --plan: time budget of the planning [s] (default 1)")
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -59,6 +72,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("values", nargs="+", metavar="Q", help="one value per joint [rad] or [m]")
     p.add_argument("--deg", action="store_true", help="rotary joint values in degrees")
     add_move_options(p)
+    add_plan_option(p)
     add_json(p)
     p.set_defaults(func=cmd_move_joints)
 
@@ -66,8 +80,25 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         p = sub.add_parser(name, help=f"move to {what}")
         add_config(p)
         add_move_options(p)
+        add_plan_option(p)
         add_json(p)
         p.set_defaults(func=cmd_named, pose=name)
+
+
+def detour_options(args: argparse.Namespace) -> DetourOptions | None:
+    """The detour planning that ``--plan`` and ``--plan-time`` ask for (``None``: none).
+
+    Raises:
+        InputError: ``--plan-time`` without ``--plan``.
+    """
+    budget = getattr(args, "plan_time", None)
+    if not getattr(args, "plan", False):
+        if budget is not None:
+            raise InputError("--plan-time is the time budget of --plan: add --plan")
+        return None
+    from armctl.motion.detour import DetourOptions
+
+    return DetourOptions() if budget is None else DetourOptions(time_budget=budget)
 
 
 def _move_to_pose_arguments(p: argparse.ArgumentParser) -> None:
@@ -92,6 +123,7 @@ def _move_to_pose_arguments(p: argparse.ArgumentParser) -> None:
                    help="move to a full pose (--rpy/--quat) even when fewer than 6 joints move "
                         "the frame (such a pose is reachable only on a 5-DOF subset)")
     add_move_options(p)
+    add_plan_option(p)  # joint moves only: refused with --linear
     add_json(p)
 
 
@@ -108,6 +140,11 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
     if args.xyz is None and args.relative is None:
         raise InputError("move-to-pose needs --xyz X Y Z (optionally with --rpy, --quat or "
                          "--direction), or offsets with --relative")
+    if args.plan and args.linear:
+        raise InputError("--plan finds a joint-space path around obstacles and does not go with "
+                         "--linear: a straight line that collides is refused, never replaced "
+                         "by a detour; drop --linear to let --plan find a way, or drop --plan")
+    detour = detour_options(args)
     arm = load_arm_arg(args)
     tcp_speed, tcp_angular_speed = tcp_speeds(args)
     axes = None
@@ -157,7 +194,8 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
 
         return robot.move_to_pose(goal, linear=args.linear, speed=args.speed,
                                   solver=args.solver, on_cycle=progress, on_plan=show,
-                                  tcp_speed=tcp_speed, tcp_angular_speed=tcp_angular_speed)
+                                  tcp_speed=tcp_speed, tcp_angular_speed=tcp_angular_speed,
+                                  detour=detour)
 
     robot, report = run_motion(args, go, arm)
     data: dict[str, Any] = {"plan": plan_data(robot, report.plan),
@@ -264,11 +302,12 @@ def joint_command(args: argparse.Namespace, arm: Arm, target: Any, what: str, id
     from armctl.cli._motion_run import nothing_to_do, one_tick, run_motion
 
     still: list[bool] = []
+    detour = detour_options(args)  # --plan, --plan-time: checked before the bus opens
 
     def go(robot: Robot, progress: Progress) -> MoveReport:
         from armctl.robot import MoveReport
 
-        plan = robot.plan_joints(target(robot), args.speed, what)
+        plan = robot.plan_joints(target(robot), args.speed, what, detour=detour)
         if nothing_to_do(plan, still=one_tick(robot)):  # a servo cannot get any closer
             still.append(True)
             if not args.json:  # before what the exit policy says

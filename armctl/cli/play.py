@@ -18,6 +18,7 @@ from armctl.cli._common import (
     positive_int,
 )
 from armctl.cli._progress import Progress
+from armctl.cli._scene import add_scene_option
 from armctl.errors import InputError
 
 if TYPE_CHECKING:
@@ -55,6 +56,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                         "motion always holds where it stopped")
     add_bus_choice(p)  # --port PORT | --sim
     add_log_option(p)  # --log FILE.csv
+    add_scene_option(p)  # --scene FILE
     add_json(p)
     p.set_defaults(func=cmd_play, stop_signals=True)
 

@@ -28,6 +28,8 @@ if TYPE_CHECKING:
     import numpy as np
 
     from armctl.arm import Arm
+    from armctl.collision import Clearance
+    from armctl.config.scene import SceneSpec
     from armctl.render.draw import Camera, View
     from armctl.render.picture import Target
 
@@ -73,6 +75,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dpi", type=positive, default=None,
                    help="resolution (default 110, animations 80)")
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
+    scene = p.add_mutually_exclusive_group()
+    scene.add_argument("--scene", metavar="FILE", default=None,
+                       help="draw this scene file (table, obstacles; docs/config.md) instead of "
+                            "the config's 'scene:' section; a pair in contact is drawn red")
+    scene.add_argument("--no-scene", action="store_true",
+                       help="draw the arm alone, without the table and the obstacles")
     add_json(p)
     p.set_defaults(func=cmd_render)
 
@@ -166,9 +174,12 @@ def _q(args: argparse.Namespace, arm: Arm) -> np.ndarray:
 # ---- commands ----------------------------------------------------------------------------------
 def cmd_render(args: argparse.Namespace) -> int:
     """Draw the arm in one pose, a planned straight-line move, or a keyframe playback."""
+    from armctl.cli._scene import clearance_data, clearance_text, scene_arg
     from armctl.render.picture import render_pose
+    from armctl.render.scene import scene_drawing
 
     arm = load_arm_arg(args)
+    scene = scene_arg(args, arm)  # --scene FILE
     view, camera = _view(args)
     target = _target(args)
     q = _q(args, arm)
@@ -177,11 +188,16 @@ def cmd_render(args: argparse.Namespace) -> int:
         if value is not None and not value > 0:
             raise InputError(f"--{name} must be positive, got {value}")
     if args.keyframes or args.path:
-        return _render_motion(args, arm, q, view, camera, target)
+        return _render_motion(args, arm, q, view, camera, target, scene)
+    drawing = None if args.no_scene else scene_drawing(arm, q, scene)
     pic = render_pose(arm, q, args.output, view=view, camera=camera, frames=frames_arg(args),
-                      target=target, size=args.size or 5.0, dpi=args.dpi or 110.0)
+                      target=target, size=args.size or 5.0, dpi=args.dpi or 110.0,
+                      scene=drawing)
     lines = [f"wrote {pic.path} ({', '.join(c.name for c in pic.cameras)})",
              "tool at x {} y {} z {} m".format(*(fmt(v) for v in pic.tool_position))]
+    if drawing is not None:
+        lines.append(clearance_text(drawing.clearance)
+                     + (" (drawn red)" if drawing.in_contact else ""))
     if pic.target_distance is not None:
         lines.append(f"distance from the tool to the target: {fmt(pic.target_distance)} m")
     inside = arm.within_limits(q)
@@ -189,15 +205,28 @@ def cmd_render(args: argparse.Namespace) -> int:
         lines.append("note: these joint values are outside the joint limits")
     emit(args, {"output": str(pic.path), "q": q, "views": [c.name for c in pic.cameras],
                 "tool_position": pic.tool_position, "target_distance": pic.target_distance,
-                "within_limits": inside}, "\n".join(lines))
+                "within_limits": inside,
+                "scene": None if drawing is None else {
+                    "file": str(drawing.scene.file) if drawing.scene.file else None,
+                    "obstacles": [o.name for o in drawing.obstacles],
+                    "table": drawing.table_height is not None},
+                "clearance": None if drawing is None else clearance_data(drawing.clearance)},
+         "\n".join(lines))
     return 0
 
 
 def _render_motion(args: argparse.Namespace, arm: Arm, q: np.ndarray, view: View,
-                   camera: Camera | None, target: Target | None) -> int:
-    """``render --keyframes`` and ``render --path``: plan (moving nothing), then draw."""
+                   camera: Camera | None, target: Target | None, scene: SceneSpec | None
+                   ) -> int:
+    """``render --keyframes`` and ``render --path``: plan (moving nothing), then draw.
+
+    The scene (the config's, or ``scene`` from ``--scene``; none with ``--no-scene``) is drawn
+    with the motion, and a pair in contact in red.
+    """
     from pathlib import Path
 
+    from armctl.cli._scene import clearance_data
+    from armctl.collision import CollisionModel
     from armctl.render.animation import ANIMATION_SUFFIXES, render_animation
     from armctl.render.motions import plan_keyframes, plan_straight_line, sample_plan
     from armctl.render.picture import render_path
@@ -226,23 +255,59 @@ def _render_motion(args: argparse.Namespace, arm: Arm, q: np.ndarray, view: View
         head = f"straight line, {len(planned.samples)} IK samples"
         data["samples"] = len(planned.samples)
         if not animate:
+            from armctl.collision.single import clearance_once
+            from armctl.render.scene import scene_drawing
+
+            drawing = (None if args.no_scene
+                       else scene_drawing(arm, planned.samples[-1], scene))
             pic = render_path(arm, planned.samples, args.output, line=line, view=view,
-                              camera=camera, target=target, size=args.size or 5.0)
+                              camera=camera, target=target, size=args.size or 5.0,
+                              scene=drawing)
+            text = (f"wrote {pic.path}: {head}, {plan.duration:.2f} s; largest distance of a "
+                    f"sample from the line {fmt((pic.max_deviation or 0.0) * 1e3, 3)} mm")
+            first = None
+            if drawing is not None:  # the first IK sample in contact, if any
+                model = CollisionModel.of(arm, scene)
+                for i, qi in enumerate(planned.samples):
+                    c = clearance_once(model, qi)
+                    if c is not None and c.margin < 0.0:
+                        first = {"sample": i, **(clearance_data(c) or {})}
+                        text += (f"\nIK sample {i} of {len(planned.samples) - 1} is in "
+                                 f"contact: {_contact_words(c)}")
+                        break
             data.update(max_deviation=pic.max_deviation, duration=plan.duration,
-                        goal=plan.goal)
-            emit(args, data, f"wrote {pic.path}: {head}, {plan.duration:.2f} s; largest "
-                 f"distance of a sample from the line {fmt((pic.max_deviation or 0.0) * 1e3, 3)}"
-                 " mm")
+                        goal=plan.goal, first_contact=first,
+                        clearance=None if drawing is None else clearance_data(drawing.clearance))
+            emit(args, data, text)
             return 0
     ts, qs = sample_plan(plan, max(args.fps, 1.0) * 2.0)
     res = render_animation(arm, qs, ts, args.output, fps=args.fps, view=view, camera=camera,
                            frames=frames_arg(args), target=target, line=line,
                            size=args.size or 4.5, dpi=args.dpi or 80.0,
-                           title=f"{arm.name}: {head}")
-    data.update(frames=res.frames, fps=res.fps, duration=res.duration, goal=plan.goal)
-    emit(args, data, f"wrote {res.path}: {head}, {res.duration:.2f} s, {res.frames} frames "
-         f"at {res.fps:.3g} fps (planned only; nothing moved)")
+                           title=f"{arm.name}: {head}",
+                           scene=None if args.no_scene else CollisionModel.of(arm, scene))
+    data.update(frames=res.frames, fps=res.fps, duration=res.duration, goal=plan.goal,
+                contact_frames=res.contact_frames,
+                first_contact=None if res.first_contact is None else {
+                    "time": res.first_contact_time, **(clearance_data(res.first_contact) or {})})
+    text = (f"wrote {res.path}: {head}, {res.duration:.2f} s, {res.frames} frames "
+            f"at {res.fps:.3g} fps (planned only; nothing moved)")
+    if res.first_contact is not None:
+        frames = ("1 frame shows" if res.contact_frames == 1
+                  else f"{res.contact_frames} frames show")
+        text += (f"\n{frames} a contact (drawn red), the first at "
+                 f"t={res.first_contact_time:.2f} s: {_contact_words(res.first_contact)}")
+    emit(args, data, text)
     return 0
+
+
+def _contact_words(c: Clearance | None) -> str:
+    """``'a' and 'b' overlap by 3.0 mm`` (or come within the padding)."""
+    if c is None:
+        return "-"
+    if c.distance < 0.0:
+        return f"{c.pair} overlap by {-c.distance * 1000:.1f} mm"
+    return f"{c.pair} come within {c.distance * 1000:.1f} mm (padding {c.padding * 1000:.1f} mm)"
 
 
 def cmd_workspace(args: argparse.Namespace) -> int:

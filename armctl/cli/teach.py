@@ -7,6 +7,7 @@ import sys
 
 from armctl.cli._bus_choice import add_bus_choice
 from armctl.cli._common import add_config, add_json, emit, load_arm_arg
+from armctl.cli._scene import add_scene_option
 
 ORDER = 41
 
@@ -30,6 +31,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--deg", action="store_true",
                    help="write angles in degrees (with --append: the file's unit is kept)")
     add_bus_choice(p)  # --port PORT | --sim
+    add_scene_option(p)  # --scene FILE
     add_json(p)
     p.set_defaults(func=cmd_teach)
 

@@ -62,6 +62,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
                    help="the follower's port instead of its config's")
     p.add_argument("--sim", action="store_true",
                    help="both arms on the built-in simulated bus")
+    p.add_argument("--scene", metavar="FILE", default=None,
+                   help="scene file (table, obstacles, padding; docs/config.md) that the "
+                        "follower is kept out of, instead of its config's 'scene:' section")
     add_json(p)
 
 
@@ -116,6 +119,7 @@ def _status(tele: Any, rate_hz: float) -> Any:
 
 def cmd_teleop(args: argparse.Namespace) -> int:
     """``armctl teleop LEADER FOLLOWER``."""
+    from armctl.cli._scene import scene_arg
     from armctl.cli._teleop_keys import read_keyframe_keys
     from armctl.config.motion import ExitPolicy
     from armctl.robot import Robot
@@ -139,10 +143,11 @@ def cmd_teleop(args: argparse.Namespace) -> int:
     follower_arm = _arm(args.follower, args.follower_port, args.sim, "--follower-port")
     paired_joints(leader_arm.name, _servo_joints(leader_arm), follower_arm.name,
                   _servo_joints(follower_arm), options.scales)  # before any bus opens
+    scene = scene_arg(args, follower_arm)  # --scene FILE: the follower's
     say = (lambda s: None) if args.json else (lambda s: print(s, file=sys.stderr, flush=True))
     leader = Robot.open(leader_arm, hold=False, exit_policy=ExitPolicy.HOLD)
     try:
-        follower = Robot.open(follower_arm, exit_policy=ExitPolicy.HOLD)
+        follower = Robot.open(follower_arm, exit_policy=ExitPolicy.HOLD, scene=scene)
     except BaseException:
         leader.close(ExitPolicy.HOLD)
         raise

@@ -11,21 +11,16 @@ from pathlib import Path
 
 import numpy as np
 
+from armctl.config.format_yaml import SCHEMA_VERSION, check_version, parse_origin, parse_shape
 from armctl.config.schema import (
     ArmSpec,
-    Box,
-    Capsule,
-    Cylinder,
     FrameSpec,
-    Geometry,
     JointRole,
     JointSpec,
     JointType,
     Limits,
     LinkSpec,
-    Mesh,
     Origin,
-    Sphere,
     unit_axis,
 )
 from armctl.config.source import Document, Section, load_yaml
@@ -34,16 +29,13 @@ from armctl.spatial import make_transform, matrix_to_rpy
 
 __all__ = ["SCHEMA_VERSION", "load_arm_yaml", "parse_arm"]
 
-SCHEMA_VERSION = 1
-
 _TOP_REQUIRED = ("name", "base", "joints")
 _TOP_OPTIONAL = (
     "armctl", "description", "source", "dh_convention", "links", "frames", "tool",
-    "end_effectors", "poses", "bus", "motion",
+    "end_effectors", "poses", "bus", "motion", "scene", "collision",
 )
 _JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "universal", "spherical")
 _DEFAULT_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-_SHAPES = ("box", "cylinder", "sphere", "capsule", "mesh")
 
 
 def load_arm_yaml(path: str | Path) -> ArmSpec:
@@ -72,11 +64,7 @@ def parse_arm(doc: Document) -> ArmSpec:
     """
     top = doc.root()
     top.check_keys(_TOP_REQUIRED, _TOP_OPTIONAL)
-    if top.has("armctl"):
-        version = top.integer("armctl", lo=1)
-        if version > SCHEMA_VERSION:
-            raise top.error(f"schema version {version} is newer than this armctl understands "
-                            f"({SCHEMA_VERSION})", "armctl", fix="upgrade armctl")
+    check_version(top)
     base = top.string("base")
     dh = top.choice("dh_convention", str, ["standard", "modified"], "none")
     joints: list[JointSpec] = []
@@ -124,6 +112,14 @@ def parse_arm(doc: Document) -> ArmSpec:
         from armctl.config.motion import parse_motion
 
         spec = _replace(spec, motion=parse_motion(top.child("motion").mapping()))
+    if top.has("scene") or top.has("collision"):
+        from armctl.config.scene_yaml import parse_collision, parse_scene
+
+        names = [lk.name for lk in all_links]
+        if top.has("scene"):
+            spec = _replace(spec, scene=parse_scene(top.child("scene"), names))
+        if top.has("collision"):
+            spec = _replace(spec, collision=parse_collision(top.child("collision"), names))
     return spec
 
 
@@ -138,15 +134,6 @@ def _nearest(name: str, valid: list[str]) -> str:
 
     close = difflib.get_close_matches(name, valid, n=1)
     return f"did you mean {close[0]!r}?" if close else f"valid joints: {', '.join(valid)}"
-
-
-def _origin(sec: Section, key: str = "origin") -> Origin:
-    if not sec.has(key):
-        return Origin()
-    o = sec.child(key).mapping()
-    o.check_keys([], ["xyz", "rpy"])
-    return Origin(o.vector("xyz", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
-                  o.vector("rpy", 3, (0.0, 0.0, 0.0), angle=True))  # type: ignore[arg-type]
 
 
 def origin_from_matrix(t: np.ndarray) -> Origin:
@@ -217,7 +204,7 @@ def _joint_origin(sec: Section, dh: str) -> tuple[Origin, np.ndarray | None]:
         if dh == "modified":  # Craig: Rx(alpha) Tx(a) Rz(theta) Tz(d), then the joint motion
             return origin_from_matrix(rx @ tx @ rz @ tz), None
         return Origin(), rz @ tz @ tx @ rx  # standard: the motion, then Rz Tz Tx Rx
-    return _origin(sec), None
+    return parse_origin(sec), None
 
 
 def _rot(axis: int, angle: float) -> np.ndarray:
@@ -291,38 +278,14 @@ def _expand_multi(sec: Section, name: str, kind: str, parent: str, child: str, o
 
 def _parse_frame(sec: Section) -> FrameSpec:
     sec.check_keys(["name", "parent"], ["origin"])
-    return FrameSpec(sec.string("name"), sec.string("parent"), _origin(sec), sec.where())
+    return FrameSpec(sec.string("name"), sec.string("parent"), parse_origin(sec), sec.where())
 
 
 def _parse_link(sec: Section, file: Path | None) -> LinkSpec:
     sec.check_keys(["name"], ["visual", "collision"])
-    visual = tuple(_parse_shape(s.mapping(), file) for s in sec.list_of("visual", None))
-    collision = tuple(_parse_shape(s.mapping(), file) for s in sec.list_of("collision", None))
+    visual = tuple(parse_shape(s.mapping(), file) for s in sec.list_of("visual", None))
+    collision = tuple(parse_shape(s.mapping(), file) for s in sec.list_of("collision", None))
     return LinkSpec(sec.string("name"), visual, collision)
-
-
-def _parse_shape(sec: Section, file: Path | None) -> Geometry:
-    shape = sec.choice("shape", str, _SHAPES)
-    origin = _origin(sec)
-    if shape == "box":
-        sec.check_keys(["shape", "size"], ["origin"])
-        size = sec.vector("size", 3)
-        if min(size) <= 0:
-            raise sec.error(f"box sizes must be positive, found {list(size)}", "size")
-        return Box(size, origin)  # type: ignore[arg-type]
-    if shape == "sphere":
-        sec.check_keys(["shape", "radius"], ["origin"])
-        return Sphere(sec.number("radius", positive=True), origin)
-    if shape in ("cylinder", "capsule"):
-        sec.check_keys(["shape", "radius", "length"], ["origin"])
-        cls = Cylinder if shape == "cylinder" else Capsule
-        return cls(sec.number("radius", positive=True), sec.number("length", nonnegative=True),
-                   origin)
-    sec.check_keys(["shape", "path"], ["origin", "scale"])
-    raw = Path(sec.string("path"))
-    path = raw if raw.is_absolute() or file is None else file.parent / raw
-    scale = sec.vector("scale", 3, (1.0, 1.0, 1.0))
-    return Mesh(path, scale, origin)  # type: ignore[arg-type]
 
 
 def _tool(top: Section, frame_names: list[str], frames: list[FrameSpec],

@@ -14,15 +14,13 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-import numpy.typing as npt
-
+from armctl.config.geometry import Box, Capsule, Cylinder, Geometry, Mesh, Origin, Sphere
 from armctl.errors import KeyPath
-from armctl.spatial import make_transform, rpy_to_matrix
 
 if TYPE_CHECKING:
     from armctl.config.bus import BusSpec
     from armctl.config.motion import MotionSpec
+    from armctl.config.scene import CollisionSpec, SceneSpec
 
 __all__ = [
     "ArmSpec",
@@ -91,23 +89,6 @@ class JointRole(Enum):
 
 
 @dataclass(frozen=True)
-class Origin:
-    """A fixed placement: translation then URDF roll-pitch-yaw rotation.
-
-    Attributes:
-        xyz: Translation in [m].
-        rpy: Roll, pitch, yaw in [rad].
-    """
-
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
-
-    def matrix(self) -> npt.NDArray[np.float64]:
-        """The ``(4, 4)`` homogeneous transform."""
-        return make_transform(rpy_to_matrix(self.rpy), self.xyz)
-
-
-@dataclass(frozen=True)
 class Limits:
     """Joint limits in SI units; position limits are infinite for continuous joints.
 
@@ -148,7 +129,7 @@ class JointSpec:
     type: JointType
     parent: str
     child: str
-    origin: Origin = Origin()
+    origin: Origin = field(default_factory=Origin)
     axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     limits: Limits = Limits()
     role: JointRole = JointRole.ARM
@@ -168,57 +149,8 @@ class FrameSpec:
 
     name: str
     parent: str
-    origin: Origin = Origin()
+    origin: Origin = field(default_factory=Origin)
     where: KeyPath = field(default=KeyPath(), compare=False)
-
-
-@dataclass(frozen=True)
-class Box:
-    """A box centred on its origin. ``size``: edge lengths along x, y, z in [m]."""
-
-    size: tuple[float, float, float]
-    origin: Origin = Origin()
-
-
-@dataclass(frozen=True)
-class Cylinder:
-    """A cylinder along its local z axis, centred on its origin; sizes in [m]."""
-
-    radius: float
-    length: float
-    origin: Origin = Origin()
-
-
-@dataclass(frozen=True)
-class Sphere:
-    """A sphere centred on its origin; radius in [m]."""
-
-    radius: float
-    origin: Origin = Origin()
-
-
-@dataclass(frozen=True)
-class Capsule:
-    """A cylinder with hemispherical ends along local z, centred on its origin; sizes in [m].
-
-    ``length`` is the distance between the two hemisphere centres.
-    """
-
-    radius: float
-    length: float
-    origin: Origin = Origin()
-
-
-@dataclass(frozen=True)
-class Mesh:
-    """A triangle mesh file (STL, OBJ, DAE) scaled per axis and placed by its origin."""
-
-    path: Path
-    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
-    origin: Origin = Origin()
-
-
-Geometry = Box | Cylinder | Sphere | Capsule | Mesh
 
 
 @dataclass(frozen=True)
@@ -257,6 +189,10 @@ class ArmSpec:
         bus: The servo bus section, when the arm has one.
         motion: Motion defaults, when given.
         file: The file the description was read from.
+        scene: The ``scene:`` section (table, obstacles, padding); ``None``: not given (a
+            table at the base frame's xy plane and the default padding).
+        collision: The ``collision:`` section (allowed-collision matrix); ``None``: not
+            given (the matrix is found by sampling when first needed).
     """
 
     name: str
@@ -272,6 +208,8 @@ class ArmSpec:
     bus: BusSpec | None = None
     motion: MotionSpec | None = None
     file: Path | None = None
+    scene: SceneSpec | None = None
+    collision: CollisionSpec | None = None
 
     def link(self, name: str) -> LinkSpec:
         """The link called ``name``."""

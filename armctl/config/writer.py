@@ -16,6 +16,7 @@ import numpy as np
 import yaml
 
 from armctl.config.arm_yaml import SCHEMA_VERSION, origin_from_matrix
+from armctl.config.scene import AllowedPair, CollisionSpec, SceneSpec
 from armctl.config.schema import (
     ArmSpec,
     Box,
@@ -32,7 +33,8 @@ from armctl.config.schema import (
 )
 from armctl.config.source import _EXP_FLOAT
 
-__all__ = ["dump_arm_yaml", "merge_fixed"]
+__all__ = ["collision_section", "dump_arm_yaml", "dump_scene_yaml", "merge_fixed",
+           "scene_section"]
 
 
 def merge_fixed(spec: ArmSpec) -> ArmSpec:
@@ -73,7 +75,34 @@ def merge_fixed(spec: ArmSpec) -> ArmSpec:
     links = tuple(LinkSpec(lk.name, tuple(shapes[lk.name][0]), tuple(shapes[lk.name][1]))
                   for lk in spec.links if lk.name in shapes)
     del parent_joint
-    return replace(spec, joints=tuple(joints), frames=tuple(frames), links=links)
+    collision = _merged_collision(spec.collision, {n: a for n, (a, _) in anchor.items()})
+    return replace(spec, joints=tuple(joints), frames=tuple(frames), links=links,
+                   collision=collision)
+
+
+def _merged_collision(spec: CollisionSpec | None,
+                      anchor: dict[str, str]) -> CollisionSpec | None:
+    """The allowed pairs renamed to the links that fixed joints merge into.
+
+    A merged pair stays allowed only if every pair of the links merged into its two links was
+    allowed (otherwise shapes that were checked would no longer be); pairs inside one merged
+    link disappear.
+    """
+    if spec is None or all(a == n for n, a in anchor.items()):
+        return spec
+    allowed = {p.key for p in spec.allowed}
+    members: dict[str, list[str]] = {}
+    for link, a in anchor.items():
+        members.setdefault(a, []).append(link)
+    out: dict[frozenset[str], AllowedPair] = {}
+    for p in spec.allowed:
+        a, b = anchor.get(p.a, p.a), anchor.get(p.b, p.b)
+        if a == b or frozenset((a, b)) in out:
+            continue
+        if all(frozenset((u, v)) in allowed for u in members.get(a, [a])
+               for v in members.get(b, [b]) if u != v):
+            out[frozenset((a, b))] = replace(p, a=a, b=b)
+    return replace(spec, allowed=tuple(out.values()))
 
 
 def _moved(g: Geometry, t: np.ndarray) -> Geometry:
@@ -99,6 +128,11 @@ def _text(s: str) -> str:
     out = yaml.safe_dump([s], default_flow_style=True, width=math.inf, allow_unicode=True)
     out = out.strip()[1:-1]
     return json.dumps(s) if _EXP_FLOAT.match(out) else out  # 1e5: a number to armctl
+
+
+def _quoted(s: str) -> str:
+    """``s`` double-quoted on one line, line breaks and control characters escaped."""
+    return yaml.safe_dump(s, default_style='"', width=math.inf, allow_unicode=True).strip()
 
 
 def _vec(v: tuple[float, ...]) -> str:
@@ -207,4 +241,82 @@ def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "")
         for name, values in spec.poses.items():
             row = tuple(values[j.name] for j in spec.actuated_joints)
             lines.append(f"  {_text(name)}: {_vec(row)}")
+    if spec.scene is not None:
+        lines += scene_section(spec.scene, rel)
+    if spec.collision is not None:
+        lines += collision_section(spec.collision)
+    return "\n".join(lines) + "\n"
+
+
+def _scene_body(scene: SceneSpec, rel: Path | None, indent: str) -> list[str]:
+    if scene.table is None:
+        lines = [f"{indent}table: false"]
+    else:
+        lines = [f"{indent}table: {{height: {_num(scene.table.height)}}}"]
+    lines.append(f"{indent}padding: {_num(scene.padding)}")
+    if scene.exact:
+        lines.append(f"{indent}exact: true")
+    placed = _origin(scene.base_in_world)
+    if placed:
+        lines.append(f"{indent}base_in_world: {placed}")
+    if scene.obstacles:
+        lines.append(f"{indent}obstacles:")
+        for ob in scene.obstacles:
+            shape = _shape(ob.shape, rel)[1:-1]
+            lines.append(f"{indent}  - {{name: {_text(ob.name)}, {shape}, "
+                         f"frame: {ob.frame.value}}}")
+    else:
+        lines.append(f"{indent}obstacles: []")
+    return lines
+
+
+def scene_section(scene: SceneSpec, rel: Path | None = None) -> list[str]:
+    """The ``scene:`` section of an arm YAML file, as lines.
+
+    Args:
+        scene: The scene.
+        rel: The folder of the file the lines go to: mesh paths are made relative to it.
+
+    Returns:
+        The lines (without line ends), starting with ``scene:``.
+    """
+    return ["scene:", *_scene_body(scene, rel, "  ")]
+
+
+def collision_section(spec: CollisionSpec) -> list[str]:
+    """The ``collision:`` section of an arm YAML file, as lines.
+
+    Args:
+        spec: The allowed-collision matrix.
+
+    Returns:
+        The lines (without line ends), starting with ``collision:``; one line per pair.
+    """
+    lines = ["collision:", f"  samples: {spec.samples}"]
+    if not spec.allowed:
+        return [*lines, "  allowed: []"]
+    lines.append("  allowed:")
+    for p in spec.allowed:
+        row = f"links: [{_text(p.a)}, {_text(p.b)}], reason: {p.reason.value}"
+        if p.note:
+            note = _text(p.note) if p.note.isprintable() else _quoted(p.note)
+            row += f", note: {note}"
+        lines.append(f"    - {{{row}}}")
+    return lines
+
+
+def dump_scene_yaml(scene: SceneSpec, out_file: Path | None = None, header: str = "") -> str:
+    """A scene as the text of a scene file (read by :func:`armctl.config.scene_yaml.load_scene`).
+
+    Args:
+        scene: The scene.
+        out_file: Where the text will be written; mesh paths are made relative to its folder.
+        header: Comment lines to put at the top (without ``#``).
+
+    Returns:
+        The YAML text.
+    """
+    rel = out_file.parent if out_file is not None else None
+    lines = [f"# {h}" if h else "#" for h in header.splitlines()]
+    lines += [f"armctl: {SCHEMA_VERSION}", *_scene_body(scene, rel, "")]
     return "\n".join(lines) + "\n"

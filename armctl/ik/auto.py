@@ -10,7 +10,9 @@
    singularities that the restarts missed.
 
 The better of the two answers is returned; ``success`` is decided by
-:func:`armctl.ik.result.finish` as always.
+:func:`armctl.ik.result.finish` as always. With a collision checker (``options.avoid``) both
+steps keep only answers free of contact (the closed form: the nearest free solution); when
+every answer collides, the one with the shallowest contact is returned as ``COLLIDES``.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from typing import Any
 from armctl.ik.goals import Goal
 from armctl.ik.numerical import check_no_constraints, run_method
 from armctl.ik.options import IKOptions
-from armctl.ik.result import IKResult, finish
+from armctl.ik.result import IKResult, IKStatus, finish
 from armctl.kinematics.model import KinematicModel
 from armctl.typing import Array
 
@@ -86,7 +88,15 @@ def auto(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKO
         return res
     _CLOSED_FORM[model][(goal.frame, type(goal))] = True
     if not closed.success:
+        if closed.status is IKStatus.COLLIDES and closed.contact is not None and (
+                res.contact is None or res.status is not IKStatus.COLLIDES
+                or closed.contact.depth < res.contact.depth):
+            return finish(model, goals, closed.q, solver="auto", status=closed.status,
+                          iterations=res.iterations, restarts=res.restarts, started=started,
+                          message="every closed-form solution inside the limits collides; "
+                                  "the one with the shallowest contact is returned",
+                          avoid=options.avoid)
         return res
     return finish(model, goals, closed.q, solver="auto", status=closed.status,
                   iterations=res.iterations, restarts=res.restarts, started=started,
-                  message="closed form after the numerical search failed")
+                  message="closed form after the numerical search failed", avoid=options.avoid)

@@ -4,7 +4,10 @@
 frames, weights and tolerances; different targets) and runs one numerical method over all of them
 inside one compiled loop. Whether each answer succeeded is decided afterwards from the forward
 kinematics of the returned ``q`` and the joint limits, vectorised over the batch, with the same
-criteria as :func:`armctl.ik.result.finish`.
+criteria as :func:`armctl.ik.result.finish`. With a collision checker (``options.avoid``) the
+answers are checked together (:meth:`armctl.collision.CollisionModel.free_batch`) and each one
+in contact is solved again on its own by :func:`armctl.ik.numerical.run_method`, which restarts
+until an answer is free (or reports ``COLLIDES``).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from armctl.ik._pack import goal_row, model_arrays, pack_goals, seed_state, wrap
 from armctl.ik._residual import goal_errors_many
 from armctl.ik.goals import Goal, GoalLike, PoseGoal, Tolerance, as_goals
 from armctl.ik.nullspace import ns_arrays
-from armctl.ik.numerical import _METHODS, method_params
+from armctl.ik.numerical import _METHODS, method_params, run_method
 from armctl.ik.options import IKOptions
 from armctl.ik.registry import DEFAULT, check_request, solver_info, solver_infos
 from armctl.ik.result import IKStatus
@@ -45,7 +48,8 @@ class IKBatchResult:
         q: Joint vectors ``(N, dof)``: solutions, or the closest found.
         success: ``(N,)``: every goal met within tolerance (by FK) and ``q`` inside the limits.
         status: Per problem, as :func:`armctl.ik.result.finish` decides it: converged, max
-            iterations, unreachable, time limit, singular or failed (the start returned).
+            iterations, unreachable, time limit, singular, collides (with ``options.avoid``)
+            or failed (the start returned).
         iterations: ``(N,)`` iterations, summed over restarts.
         restarts: ``(N,)`` restarts used.
         position_error: ``(N,)`` largest position error over the goals [m].
@@ -128,7 +132,8 @@ def solve_batch(
             the ranges; clipped into the limits.
         solver: ``dls`` (also for ``auto``), ``pinv``, ``jt``, ``ccd`` or ``ccd-jt``.
         options: Budgets (``time_limit`` applies to each problem), seed (problem ``i`` uses a
-            generator derived from ``seed`` and ``i``), null-space criteria.
+            generator derived from ``seed`` and ``i``), null-space criteria, collision checker
+            (``avoid``: success also requires an answer free of contact).
         tolerance: Tolerance of goals built from pose arrays.
 
     Returns:
@@ -186,9 +191,21 @@ def solve_batch(
     failed |= ~(np.isfinite(dp) & np.isfinite(dr))
     inside = np.all((q >= model.lower - 1e-9) & (q <= model.upper + 1e-9), axis=1)
     success = met & inside
+    again: dict[int, IKStatus] = {}
+    if options.avoid is not None:
+        for k in np.flatnonzero(success & ~options.avoid.free_batch(q)).tolist():
+            res = run_method(method_name, model, sets[k], starts[k],
+                             replace(options, seed=int(seeds[k])), ())
+            q[k], success[k], again[k] = res.q, res.success, res.status
+            dp[k], dr[k], inside[k] = res.position_error, res.rotation_error, res.within_limits
+            info[k, 1] += res.iterations
+            info[k, 2] += res.restarts + 1
     status = []
     rank: int | None = None  # the goals' usual rank (goal_rank), shared by the batch
     for i in range(n):
+        if i in again:
+            status.append(again[i])
+            continue
         if success[i]:
             status.append(IKStatus.CONVERGED)
             continue

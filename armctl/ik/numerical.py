@@ -32,6 +32,12 @@ step:
 false minima at the limits) and bring a solution into them by whole turns, or else clamp it and
 go on with the limits on; all restart from uniform random configurations when an attempt stalls
 or uses up its iterations, and stop at the time limit.
+
+With a collision checker (``options.avoid``) an attempt that converges to a configuration in
+contact does not end the solve: the answer is set aside and the search goes on from the next
+random start (the same generator, so a seed still fixes the answer) within the same budgets.
+The first free answer is returned; when every answer found collides, the one with the
+shallowest contact is returned with status ``COLLIDES`` and its contact.
 """
 
 from __future__ import annotations
@@ -40,9 +46,10 @@ import time
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from armctl.errors import InputError
 from armctl.ik import _engine as E
@@ -54,6 +61,9 @@ from armctl.ik.registry import check_request
 from armctl.ik.result import IKResult, IKStatus, finish
 from armctl.kinematics.model import KinematicModel
 from armctl.typing import Array
+
+if TYPE_CHECKING:
+    from armctl.collision.model import CollisionModel
 
 __all__ = ["MethodParams", "ccd", "ccd_jt", "dls", "jt", "method_params", "pinv", "run_method"]
 
@@ -177,12 +187,59 @@ def run_method(
            options.restarts + 1, t0 + options.time_limit)
     q_out = np.empty(model.dof)
     q_out.fill(np.nan)  # stays NaN if no attempt ever had a finite error
+    state = seed_state(options.seed)
+    ns = ns_arrays(model, options.nullspace)
     status, iters, attempts, stalled = E.solve(
-        np.array(q0, dtype=float), ma.kernel, gk, run,
-        ns_arrays(model, options.nullspace), seed_state(options.seed), q_out,
+        np.array(q0, dtype=float), ma.kernel, gk, run, ns, state, q_out,
         _NO_TRACE if trace is None else trace)
+    if options.avoid is not None and status == E.CONVERGED:
+        return _avoiding(label or name, model, goals, q0, options, ma, gk, run, ns, state,
+                         q_out, (iters, attempts, stalled), t0)
     return _finish(label or name, model, goals, q_out, ma, status, iters, attempts, stalled, t0,
-                   q0)
+                   q0, avoid=options.avoid)
+
+
+def _avoiding(name: str, model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
+              options: IKOptions, ma: ModelArrays, gk: Any, run: Any, ns: Any,
+              state: npt.NDArray[np.uint64],
+              q_out: Array, used: tuple[int, int, int], started: float) -> IKResult:
+    """Go on searching while the converged answers collide (``options.avoid``).
+
+    Each further search starts at a random configuration from the solve's own generator
+    ``state`` and gets the attempts not used yet; the deadline stays the solve's.
+    """
+    avoid = options.avoid
+    assert avoid is not None
+    iters, attempts, stalled = used
+    method, prm, max_iter, budget, deadline = run
+    lower, upper = ma.kernel[0], ma.kernel[1]
+    mask = gk[5]
+    best: tuple[float, Array] | None = None
+    found = 0
+    status = E.CONVERGED
+    while True:
+        q = wrap_continuous(q_out, ma.continuous) if ma.wraps else q_out
+        contact = avoid.contact(q)
+        if contact is None:
+            return _finish(name, model, goals, q_out, ma, E.CONVERGED, iters, attempts, stalled,
+                           started, q0, avoid=avoid)
+        found += 1
+        if best is None or contact.depth < best[0]:
+            best = (contact.depth, q_out.copy())
+        if attempts >= budget or status != E.CONVERGED:
+            break
+        start = np.array(q0, dtype=float)
+        E._random_q(lower, upper, state, mask, start)
+        status, it, att, stl = E.solve(start, ma.kernel, gk,
+                                       (method, prm, max_iter, budget - attempts, deadline), ns,
+                                       state, q_out, _NO_TRACE)
+        iters, attempts, stalled = iters + it, attempts + att, stalled + stl
+        if status != E.CONVERGED:
+            break
+    note = (f"{found} answer(s) found in {attempts} start(s), every one in contact; the one "
+            "with the shallowest contact is returned")
+    return _finish(name, model, goals, best[1], ma, E.CONVERGED, iters, attempts, stalled,
+                   started, q0, avoid=avoid, note=note)
 
 
 #: The ``trace`` of a solve that records none (no rows: the kernel never writes to it).
@@ -191,12 +248,13 @@ _NO_TRACE = np.empty((0, 2))
 
 def _finish(name: str, model: KinematicModel, goals: tuple[Goal, ...], q: Array,
             ma: ModelArrays, status: int, iters: int, attempts: int, stalled: int,
-            started: float, start: Array) -> IKResult:
+            started: float, start: Array, *, avoid: CollisionModel | None = None,
+            note: str = "") -> IKResult:
     if ma.wraps:
         q = wrap_continuous(q, ma.continuous)
-    message = ""
+    message = note
     if status == E.CONVERGED:
-        st = IKStatus.CONVERGED
+        st = IKStatus.COLLIDES if note else IKStatus.CONVERGED
     elif status == E.TIME_LIMIT:
         st = IKStatus.TIME_LIMIT
         message = f"time limit reached after {attempts} start(s)"
@@ -209,7 +267,7 @@ def _finish(name: str, model: KinematicModel, goals: tuple[Goal, ...], q: Array,
         message = f"iteration budget used up in {attempts} start(s)"
     return finish(model, goals, q, solver=name, status=st, iterations=int(iters),
                   restarts=max(int(attempts) - 1, 0), started=started, message=message,
-                  start=start, search=True)
+                  start=start, search=True, avoid=avoid)
 
 
 def pinv(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,

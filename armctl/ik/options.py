@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from armctl.errors import InputError
 from armctl.ik.nullspace import NullSpace
+
+if TYPE_CHECKING:
+    from armctl.collision.model import CollisionModel
 
 __all__ = ["IKOptions"]
 
@@ -22,6 +26,10 @@ class IKOptions:
             same seed gives the same answer.
         nullspace: Secondary criteria for ``pinv`` and ``dls`` (comfortable posture, joint-limit
             avoidance, keep-out spheres, manipulability); ``None`` for none.
+        avoid: A collision checker (:class:`armctl.collision.CollisionModel`): an answer
+            succeeds only when it is free of contact; a solver that converges to one in contact
+            discards it and restarts, and reports ``IKStatus.COLLIDES`` with the contact when
+            every answer it found collides. ``None``: collisions are not checked.
     """
 
     max_iterations: int = 100
@@ -29,6 +37,7 @@ class IKOptions:
     restarts: int = 50
     seed: int | None = 0
     nullspace: NullSpace | None = None
+    avoid: CollisionModel | None = None
 
     def __post_init__(self) -> None:
         if self.max_iterations < 1:

@@ -8,18 +8,21 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any, Protocol
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from armctl.errors import UnknownNameError
+from armctl.errors import InputError, UnknownNameError
 from armctl.ik.errors import UnsupportedGoalError
 from armctl.ik.goals import Goal, GoalKind, GoalLike, as_goals
 from armctl.ik.options import IKOptions
 from armctl.ik.result import IKResult
 from armctl.kinematics.model import KinematicModel
+
+if TYPE_CHECKING:
+    from armctl.collision.model import CollisionModel
 
 __all__ = [
     "DEFAULT",
@@ -232,6 +235,7 @@ def solve(
     *,
     options: IKOptions | None = None,
     constraints: Sequence[Any] = (),
+    avoid: CollisionModel | None = None,
 ) -> IKResult:
     """Solve inverse kinematics.
 
@@ -243,9 +247,11 @@ def solve(
         solver: Registered solver name (see :func:`available_solvers`).
         options: Budgets and seed.
         constraints: Extra constraints (only solvers whose capabilities say so accept any).
+        avoid: A collision checker; replaces ``options.avoid`` (see :class:`IKOptions`).
 
     Returns:
-        The result; ``result.success`` says whether every goal was reached inside the limits.
+        The result; ``result.success`` says whether every goal was reached inside the limits
+        (and, with a checker, free of contact).
 
     Raises:
         UnsupportedGoalError: For goals or constraints the solver cannot take (naming those that
@@ -257,7 +263,14 @@ def solve(
     fn = get_solver(solver)
     check_request(solver, goals, constraints)
     start = model.middle() if q0 is None else model.clip(q0)
-    return fn(model, goals, start, options or _DEFAULT_OPTIONS, tuple(constraints))
+    opts = options or _DEFAULT_OPTIONS
+    if avoid is not None:
+        if tuple(avoid.model.joint_names) != tuple(model.joint_names):
+            raise InputError(f"avoid: the collision checker was built for arm "
+                             f"{avoid.model.name!r}, whose joints differ from those of "
+                             f"{model.name!r}; use CollisionModel.of(arm) of the arm solved")
+        opts = replace(opts, avoid=avoid)
+    return fn(model, goals, start, opts, tuple(constraints))
 
 
 _DEFAULT_OPTIONS = IKOptions()  # frozen: one instance serves every call without options

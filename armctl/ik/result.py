@@ -1,9 +1,10 @@
 """The result every IK solver returns, and the one place that decides ``success``.
 
-:func:`finish` also settles the two statuses that need a look at the answer: ``FAILED`` for
+:func:`finish` also settles the statuses that need a look at the answer: ``FAILED`` for
 non-finite joint values or goal errors, ``SINGULAR`` for a failed search that ended at a
-singular configuration of its goals (:mod:`armctl.ik.singular`). The statuses are listed in
-``docs/ik-goals.md``.
+singular configuration of its goals (:mod:`armctl.ik.singular`), ``COLLIDES`` for an answer
+that meets every goal but brings a link into contact (when a collision checker is given). The
+statuses are listed in ``docs/ik-goals.md``.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -23,6 +24,10 @@ from armctl.ik.goals import Goal
 from armctl.ik.singular import SINGULAR_THRESHOLD, stuck_at_singularity
 from armctl.kinematics.model import KinematicModel
 from armctl.typing import Array
+
+if TYPE_CHECKING:
+    from armctl.collision.contact import Contact
+    from armctl.collision.model import CollisionModel
 
 __all__ = ["CheckedConstraint", "ConstraintViolation", "GoalResidual", "IKResult", "IKStatus",
            "evaluate", "finish"]
@@ -41,6 +46,8 @@ class IKStatus(Enum):
     # where the error still falls (armctl.ik.singular); that q returned
     FAILED = "failed"  # numerical failure: non-finite joint values or goal errors; the start
     # returned
+    COLLIDES = "collides"  # every goal met inside the limits, but a link is in contact (a
+    # collision checker was given); the answer found with the shallowest contact returned
 
 
 @dataclass(frozen=True)
@@ -123,6 +130,8 @@ class IKResult:
         time: Wall time of the solve [s].
         message: A human-readable summary.
         constraint_errors: Per-constraint violations (solvers that take constraints).
+        contact: When a collision checker was given (``IKOptions.avoid``) and ``q`` collides:
+            the deepest contact at ``q`` (pair, distance, depth); ``None`` otherwise.
     """
 
     q: Array
@@ -138,6 +147,7 @@ class IKResult:
     time: float
     message: str = ""
     constraint_errors: tuple[ConstraintViolation, ...] = ()
+    contact: Contact | None = None
 
 
 def evaluate(model: KinematicModel, goals: tuple[Goal, ...],
@@ -175,6 +185,7 @@ def finish(
     constraints: Sequence[CheckedConstraint] = (),
     start: npt.ArrayLike | None = None,
     search: bool = False,
+    avoid: CollisionModel | None = None,
 ) -> IKResult:
     """Build the result, deciding ``success`` from FK and the joint limits.
 
@@ -191,7 +202,8 @@ def finish(
       direction (:func:`armctl.ik.singular.stuck_at_singularity`).
 
     A solver that reports anything but ``CONVERGED`` for a configuration that in fact meets every
-    goal gets ``CONVERGED``.
+    goal gets ``CONVERGED``, unless a collision checker is given and ``q`` collides: then
+    ``COLLIDES``, and ``success`` is False.
 
     Args:
         model: The arm.
@@ -209,6 +221,8 @@ def finish(
             the ranges when not given.
         search: Whether the solver searches iteratively from a start (and can get stuck at a
             singular configuration); a closed form's verdict is never changed to ``SINGULAR``.
+        avoid: A collision checker; success also requires ``q`` to be free of contact, and
+            the result names the contact at ``q`` when there is one.
 
     Returns:
         The result.
@@ -231,12 +245,16 @@ def finish(
                                          bool(c.hard), v <= c.tolerance))
     reached = all([e.reached for e in errs])
     met = reached and all([e.satisfied for e in cerrs if e.hard])
-    success = met and inside
+    contact = avoid.contact(qa) if avoid is not None and finite else None
+    success = met and inside and contact is None
     dp = max([e.position for e in errs])
     dr = max([e.rotation for e in errs])
     notes = [message] if message else []
     if success:
         status = IKStatus.CONVERGED
+    elif met and inside and contact is not None and _finite(errs, cerrs):
+        status = IKStatus.COLLIDES
+        notes.append(f"collides: {contact.describe()}")
     elif not finite or not _finite(errs, cerrs):
         status = IKStatus.FAILED
         dp = math.nan if any(math.isnan(e.position) for e in errs) else dp  # max() may skip it
@@ -244,7 +262,7 @@ def finish(
         notes.insert(0, "numerical failure: " + (
             "a goal error or constraint violation is not finite" if finite else
             "the solver returned non-finite joint values; the start is returned"))
-    elif status is IKStatus.CONVERGED:
+    elif status in (IKStatus.CONVERGED, IKStatus.COLLIDES):
         status = IKStatus.MAX_ITERATIONS
     elif (search and not reached
           and status in (IKStatus.UNREACHABLE, IKStatus.MAX_ITERATIONS)):
@@ -264,7 +282,7 @@ def finish(
         summary += (f"; {len(broken)} hard constraint(s) violated, worst {worst.name} by "
                     f"{worst.violation:.3g}")
     return IKResult(qa, success, status, solver, iterations, restarts, dp, dr, errs, inside,
-                    time.perf_counter() - started, summary, tuple(cerrs))
+                    time.perf_counter() - started, summary, tuple(cerrs), contact)
 
 
 def _finite(errs: Sequence[GoalResidual], cerrs: Sequence[ConstraintViolation]) -> bool:

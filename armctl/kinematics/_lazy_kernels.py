@@ -16,6 +16,7 @@ with them before numba would have finished loading its compiled kernels (about h
 
 from __future__ import annotations
 
+import importlib
 import types
 from collections.abc import Callable
 from typing import Any
@@ -37,6 +38,7 @@ class KernelSet:
         self._namespace: dict[str, Any] | None = None
         self._compiled = False
         self._interpreted: dict[str, Any] | None = None
+        self._borrowed: dict[str, tuple[str, str]] = {}
 
     def kernel(self, **options: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
         """Decorator: a kernel, compiled with ``numba.njit(**options)`` when first asked for."""
@@ -47,6 +49,14 @@ class KernelSet:
             return fn
 
         return wrap
+
+    def borrow(self, local: str, module: str, name: str) -> None:
+        """Let this module's kernels call kernel ``name`` of another kernel ``module`` as ``local``.
+
+        Compiled kernels call the other module's compiled kernel; interpreted ones its
+        interpreted twin (the other module must have a module-level ``interpreted`` function).
+        """
+        self._borrowed[local] = (module, name)
 
     def finish(self, namespace: dict[str, Any]) -> None:
         """Take the kernels out of the module's namespace (``globals()``).
@@ -73,6 +83,8 @@ class KernelSet:
             raise RuntimeError(f"{self.module}: KernelSet.finish was not called")
         import numba
 
+        for local, (module, name) in self._borrowed.items():
+            self._namespace[local] = getattr(importlib.import_module(module), name)
         for name, fn in self._py.items():  # fn's globals are the module's namespace
             self._namespace[name] = numba.njit(**self._options[name])(fn)
         self._compiled = True
@@ -91,6 +103,8 @@ class KernelSet:
             if self._namespace is None:
                 raise RuntimeError(f"{self.module}: KernelSet.finish was not called")
             ns = dict(self._namespace)
+            for local, (module, other) in self._borrowed.items():
+                ns[local] = importlib.import_module(module).interpreted(other)
             for kname, fn in self._py.items():
                 ns[kname] = types.FunctionType(fn.__code__, ns, fn.__name__, fn.__defaults__,
                                                fn.__closure__)

@@ -244,9 +244,11 @@ def _point_box_distance(p: Array, lower: Array, upper: Array) -> float:
 def segment_box_distance(a: Array, b: Array, lower: Array, upper: Array) -> float:
     """Signed distance from the segment ``a``-``b`` to an axis-aligned box [m].
 
-    Negative when the segment enters the box (minus the depth of its deepest point). The
-    distance along a segment to a convex set is convex, so a golden-section search finds the
-    minimum.
+    Negative when the segment enters the box: minus its penetration depth, the least
+    translation that takes it out (the least overlap of the two along the separating-axis
+    candidates: the box's face normals and the segment's direction crossed with the box's
+    edges). Apart, the distance along a segment to a convex set is convex, so a golden-section
+    search finds the minimum.
     """
     g = (math.sqrt(5.0) - 1.0) / 2.0
     lo, hi = 0.0, 1.0
@@ -265,4 +267,17 @@ def segment_box_distance(a: Array, b: Array, lower: Array, upper: Array) -> floa
             lo, x1, f1 = x1, x2, f2
             x2 = lo + g * (hi - lo)
             f2 = f(x2)
-    return min(f1, f2, f(0.0), f(1.0))
+    gap = min(f1, f2, f(0.0), f(1.0))
+    if gap > 0.0:
+        return gap
+    centre, half = (lower + upper) / 2.0, (upper - lower) / 2.0
+    ends = np.stack([a - centre, b - centre])
+    d = b - a
+    axes = [np.eye(3)[i] for i in range(3)]
+    for i in range(3):
+        c = np.cross(d, np.eye(3)[i])
+        if np.linalg.norm(c) > 1e-9 * max(float(np.linalg.norm(d)), 1e-300):
+            axes.append(c / np.linalg.norm(c))
+    depth = min(min(float((ends @ n).max() + np.abs(n) @ half),
+                    float(np.abs(n) @ half - (ends @ n).min())) for n in axes)
+    return -depth

@@ -3,7 +3,8 @@
 Pure planning: nothing here talks to servos (:mod:`armctl.robot` streams plans to the bus).
 """
 
-from armctl.motion.errors import LimitViolation, PathError
+from armctl.motion.detour import DetourOptions, Planner, plan_detour
+from armctl.motion.errors import DetourError, LimitViolation, PathError
 from armctl.motion.interpolate import Interpolation, plan_run
 from armctl.motion.keyframe_file import load_keyframes, parse_keyframes, save_keyframes
 from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram, LengthUnit
@@ -16,6 +17,8 @@ from armctl.motion.trajectory import Chain, Hold, PiecewisePolynomial, Trajector
 __all__ = [
     "AngleUnit",
     "Chain",
+    "DetourError",
+    "DetourOptions",
     "Event",
     "Hold",
     "Interpolation",
@@ -27,6 +30,7 @@ __all__ = [
     "MotionPlan",
     "PathError",
     "PiecewisePolynomial",
+    "Planner",
     "PlaybackOptions",
     "Trajectory",
     "Waypoint",
@@ -34,6 +38,7 @@ __all__ = [
     "check_trajectory",
     "load_keyframes",
     "parse_keyframes",
+    "plan_detour",
     "plan_joint_move",
     "plan_program",
     "plan_run",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from armctl.errors import PlanningError
 
-__all__ = ["LimitViolation", "PathError"]
+__all__ = ["DetourError", "LimitViolation", "PathError"]
 
 
 class LimitViolation(PlanningError):
@@ -64,3 +64,30 @@ class PathError(PlanningError):
             f"straight-line path planned to {fraction:.0%}, fails at s={fraction:.2f}: {reason}; "
             "nothing was moved. Try a joint-space move (without --linear), or a goal closer to "
             "the arm's workspace centre", {"fraction": fraction, "reason": reason, "joint": joint})
+
+
+class DetourError(PlanningError):
+    """No collision-free way from the start to the goal was found in the time allowed.
+
+    Args:
+        reason: What failed (no path within the budget, or a timed path that still collides).
+        budget: The time allowed [s].
+        elapsed: The time spent [s].
+        planner: The planner's name.
+        hint: How to get a plan (a sentence).
+
+    ``details``: ``reason``, ``budget``, ``elapsed`` and ``planner``.
+    """
+
+    def __init__(self, reason: str, budget: float, elapsed: float, planner: str,
+                 hint: str = ""):
+        self.reason = reason
+        self.budget = budget
+        self.elapsed = elapsed
+        self.planner = planner
+        text = (f"no collision-free detour: {reason} ({planner}, {elapsed:.3f} s of "
+                f"{budget:g} s); nothing was moved")
+        if hint:
+            text += f". {hint[:1].upper()}{hint[1:]}"
+        super().__init__(text, {"reason": reason, "budget": budget, "elapsed": elapsed,
+                                "planner": planner})

@@ -11,7 +11,7 @@ import subprocess
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -32,7 +32,12 @@ from armctl.render.draw import (
 from armctl.render.errors import MissingToolError, OutputError
 from armctl.render.picture import Target, panel_figure, resolve_frames, triad_length
 from armctl.render.plots import check_output
+from armctl.render.scene import CONTACT_COLOR, SceneArtist, obstacle_meshes
 from armctl.typing import Array
+
+if TYPE_CHECKING:
+    from armctl.collision.contact import Clearance
+    from armctl.collision.model import CollisionModel
 
 __all__ = ["ANIMATION_SUFFIXES", "Animation", "render_animation", "resample"]
 
@@ -50,12 +55,19 @@ class Animation:
         frames: Number of frames.
         fps: Frames per second actually used.
         duration: Duration of the motion [s].
+        contact_frames: With a scene: how many frames show a pair in contact (drawn red).
+        first_contact: With a scene: the pair in contact in the first such frame, else
+            ``None``.
+        first_contact_time: When that frame is, from the start of the motion [s].
     """
 
     path: Path
     frames: int
     fps: float
     duration: float
+    contact_frames: int = 0
+    first_contact: Clearance | None = None
+    first_contact_time: float | None = None
 
 
 def resample(qs: npt.ArrayLike, times: npt.ArrayLike, fps: float) -> tuple[Array, Array]:
@@ -134,7 +146,8 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
                      target: Target | None = None, bounds: Bounds | None = None,
                      geometry: BoundGeometry | None = None, trail: bool = True,
                      max_frames: int = 600, size: float = 4.5, dpi: float = 80,
-                     title: str | None = None, line: npt.ArrayLike | None = None) -> Animation:
+                     title: str | None = None, line: npt.ArrayLike | None = None,
+                     scene: CollisionModel | None = None) -> Animation:
     """Draw a joint-space motion as an animation (GIF, or MP4 when ffmpeg is installed).
 
     The motion is resampled at ``fps`` by linear interpolation between the given samples (pass
@@ -159,6 +172,9 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
         dpi: Resolution.
         title: Title; the arm name when ``None``.
         line: A planned Cartesian path ``(k, 3)`` [m] drawn dashed (e.g. a straight line's ends).
+        scene: A collision model whose scene is drawn (the table, the obstacles); in every
+            frame where a pair is in contact both members are drawn red. ``None``: the arm
+            alone.
 
     Returns:
         What was written.
@@ -192,6 +208,10 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
             pts.append(target.pose[:3, 3][None])
         if line is not None:
             pts.append(np.asarray(line, dtype=float).reshape(-1, 3))
+        if scene is not None:
+            pts += [ob.mesh.vertices for ob in obstacle_meshes(scene.scene, arm.spec.file)]
+            if scene.scene.table is not None:  # the table top under the base
+                pts.append(np.array([[0.0, 0.0, scene.scene.table.height]]))
         bounds = Bounds.around(np.vstack(pts))
     cams = [camera] if camera is not None else cameras_for(view)
     fig, axes = panel_figure(cams, size)
@@ -200,8 +220,13 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
     tool = arm.frame_index(None)
     tool_path = np.array([p[tool, :3, 3] for p in all_poses])
     artists = []
+    scenes: list[SceneArtist] = []
     for ax, cam in zip(axes, cams, strict=False):
         setup_axes(ax, bounds, cam, title=len(cams) > 1)
+        if scene is not None:
+            scenes.append(SceneArtist(ax, obstacle_meshes(scene.scene, arm.spec.file),
+                                      None if scene.scene.table is None
+                                      else scene.scene.table.height, bounds))
         triads = [(arm.frame_index(n), FrameTriad(ax, length)) for n in names]
         trail_line = (ax.plot([], [], [], color="#0072B2", linewidth=1.0, zorder=9)[0]
                       if trail else None)
@@ -217,8 +242,23 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
     canvas = fig.canvas
     images: list[Any] = []  # GIF frames, reduced to a palette at once to keep memory small
     writer = _Mp4Writer(out, fps) if mp4 else None
+    contacts = 0
+    first: tuple[Clearance, float] | None = None
     for k, poses in enumerate(all_poses):
+        hot: frozenset[str] = frozenset()
+        if scene is not None:
+            from armctl.collision.single import clearance_once
+
+            c = clearance_once(scene, fq[k])
+            if c is not None and c.margin < 0.0:
+                hot = frozenset((c.a, c.b))
+                contacts += 1
+                first = first or (c, float(ft[k] - ft[0]))
+            for scene_artist in scenes:
+                scene_artist.set_contact(hot)
         for arm_artist, triads, trail_line in artists:
+            if scene is not None:
+                arm_artist.set_highlight({name: CONTACT_COLOR for name in hot})
             arm_artist.set_pose(poses)
             for idx, triad in triads:
                 triad.set_pose(poses[idx])
@@ -236,7 +276,8 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
         writer.close()
     else:
         _write_gif(out, images, fps)
-    return Animation(out, len(all_poses), float(fps), duration)
+    return Animation(out, len(all_poses), float(fps), duration, contacts,
+                     None if first is None else first[0], None if first is None else first[1])
 
 
 def _palette_image(frame: npt.NDArray[np.uint8]) -> Any:

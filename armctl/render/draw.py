@@ -7,6 +7,7 @@ the projection is orthographic with equal scale on all axes, so distances in a p
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
 from typing import TYPE_CHECKING
@@ -135,7 +136,7 @@ def setup_axes(ax: Axes3D, bounds: Bounds, camera: Camera, *, title: bool = True
         ax.set_title(camera.name, fontsize=9)
 
 
-def _link_colors(geometry: BoundGeometry) -> Array:
+def _link_colors(geometry: BoundGeometry, highlight: Mapping[str, str] | None = None) -> Array:
     from matplotlib.colors import to_rgb
 
     base = geometry.arm.spec.base
@@ -147,6 +148,8 @@ def _link_colors(geometry: BoundGeometry) -> Array:
         else:
             colors.append(to_rgb(_LINK_COLORS[k % 2]))
             k += 1
+        if highlight and name in highlight:
+            colors[-1] = to_rgb(highlight[name])
     return np.array(colors)[geometry.face_link]
 
 
@@ -159,21 +162,32 @@ class ArmArtist:
         alpha: Opacity (1 solid).
         zorder: Drawing order among the artists of ``ax``.
         tint: One colour for every link (e.g. for ghost poses), or ``None`` for link colours.
+        highlight: Colours of chosen links by name (e.g. a pair in contact), over the others.
     """
 
     def __init__(self, ax: Axes3D, geometry: BoundGeometry, alpha: float = 1.0,
-                 zorder: float = 1.0, tint: str | None = None):
+                 zorder: float = 1.0, tint: str | None = None,
+                 highlight: Mapping[str, str] | None = None):
         from matplotlib.colors import to_rgb
         from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
         self.geometry = geometry
         self.alpha = alpha
-        self._rgb = (_link_colors(geometry) if tint is None else
+        self._tint = tint
+        self._rgb = (_link_colors(geometry, highlight) if tint is None else
                      np.tile(np.array(to_rgb(tint)), (len(geometry.faces), 1)))
         self._edges = alpha >= 1.0  # edges of translucent faces would add up to dark lines
         self.collection = Poly3DCollection(np.zeros((0, 3, 3)),
                                            linewidths=0.25 if self._edges else 0.0, zorder=zorder)
         ax.add_collection3d(self.collection)
+
+    def set_highlight(self, highlight: Mapping[str, str] | None) -> None:
+        """Colour chosen links by name (``None``: every link its own colour again).
+
+        Takes effect at the next :meth:`set_pose`; an artist with a ``tint`` keeps it.
+        """
+        if self._tint is None:
+            self._rgb = _link_colors(self.geometry, highlight)
 
     def set_pose(self, frame_poses: npt.ArrayLike) -> Array:
         """Move every link to its pose; returns the world vertices ``(V, 3)``.
@@ -246,7 +260,7 @@ def point_to_polyline(points: npt.ArrayLike, polyline: npt.ArrayLike) -> Array:
 
 def draw_path(ax: Axes3D, geometry: BoundGeometry, qs: npt.ArrayLike, *,
               line: npt.ArrayLike | None = None, frame: str | None = None,
-              ghosts: int = 3) -> Array:
+              ghosts: int = 3, highlight: Mapping[str, str] | None = None) -> Array:
     """Draw a planned move: the planned line, the IK samples' tool positions, ghost poses.
 
     Args:
@@ -257,6 +271,7 @@ def draw_path(ax: Axes3D, geometry: BoundGeometry, qs: npt.ArrayLike, *,
             line); ``None`` draws none.
         frame: The frame that follows the path; the tool frame when ``None``.
         ghosts: How many translucent intermediate poses to draw (the last pose is drawn solid).
+        highlight: Colours of chosen links of the last pose by name (e.g. a pair in contact).
 
     Returns:
         The positions ``(N, 3)`` [m] of ``frame`` at the samples.
@@ -274,5 +289,5 @@ def draw_path(ax: Axes3D, geometry: BoundGeometry, qs: npt.ArrayLike, *,
         for i in np.linspace(0, len(q) - 1, ghosts + 1).astype(int)[:-1]:
             ArmArtist(ax, geometry, alpha=0.15, zorder=0.5, tint="#8FA3B8").set_pose(
                 arm.fk_frames(q[i]))
-    ArmArtist(ax, geometry, zorder=1.0).set_pose(arm.fk_frames(q[-1]))
+    ArmArtist(ax, geometry, zorder=1.0, highlight=highlight).set_pose(arm.fk_frames(q[-1]))
     return pts

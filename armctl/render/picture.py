@@ -25,12 +25,15 @@ from armctl.render.draw import (
     setup_axes,
 )
 from armctl.render.plots import check_output, new_figure, save_figure
+from armctl.render.scene import CONTACT_COLOR, SceneDrawing, draw_scene
 from armctl.spatial import make_transform, rpy_to_matrix
 from armctl.typing import Array
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
     from mpl_toolkits.mplot3d import Axes3D
+
+    from armctl.collision.contact import Clearance
 
 __all__ = [
     "PathPicture",
@@ -73,6 +76,8 @@ class PosePicture:
         bounds: The cube shown.
         tool_position: Position of the tool frame [m].
         target_distance: Distance from the tool frame to the target [m], ``None`` without one.
+        clearance: With a scene: the checked pair with the least room at the pose (drawn red
+            when in contact); ``None`` without a scene or when no pair is checked.
     """
 
     path: Path
@@ -80,6 +85,7 @@ class PosePicture:
     bounds: Bounds
     tool_position: tuple[float, float, float]
     target_distance: float | None
+    clearance: Clearance | None = None
 
 
 @dataclass(frozen=True)
@@ -133,7 +139,8 @@ def render_pose(arm: KinematicModel, q: npt.ArrayLike, out_path: str | Path, *,
                 view: View = View.ISO, camera: Camera | None = None,
                 frames: Sequence[str] = ("tool",), target: Target | None = None,
                 bounds: Bounds | None = None, geometry: BoundGeometry | None = None,
-                title: str | None = None, size: float = 5.0, dpi: float = 110) -> PosePicture:
+                title: str | None = None, size: float = 5.0, dpi: float = 110,
+                scene: SceneDrawing | None = None) -> PosePicture:
     """Draw the arm in one pose and write the picture (PNG, SVG, PDF, JPEG).
 
     Args:
@@ -149,6 +156,8 @@ def render_pose(arm: KinematicModel, q: npt.ArrayLike, out_path: str | Path, *,
         title: Figure title; the arm name and joint values when ``None``.
         size: Size of one panel [in].
         dpi: Resolution.
+        scene: The scene at this pose (:func:`armctl.render.scene.scene_drawing`): the table
+            and the obstacles are drawn, and a pair in contact in red; ``None``: the arm alone.
 
     Returns:
         What was drawn.
@@ -164,15 +173,22 @@ def render_pose(arm: KinematicModel, q: npt.ArrayLike, out_path: str | Path, *,
     poses = arm.fk_frames(qv)
     verts = geo.pose_vertices(poses)
     if bounds is None:
-        pts = verts if target is None else np.vstack([verts, target.pose[:3, 3]])
-        bounds = Bounds.around(pts)
+        pts = [verts] if target is None else [verts, target.pose[:3, 3][None, :]]
+        if scene is not None:
+            pts.append(scene.points())
+            if scene.table_height is not None:  # the table top under the base
+                pts.append(np.array([[0.0, 0.0, scene.table_height]]))
+        bounds = Bounds.around(np.vstack(pts))
+    hot = {} if scene is None else {name: CONTACT_COLOR for name in scene.highlighted}
     cams = [camera] if camera is not None else cameras_for(view)
     fig, axes = panel_figure(cams, size)
     fig.set_dpi(dpi)
     length = triad_length(bounds)
     for ax, cam in zip(axes, cams, strict=False):
         setup_axes(ax, bounds, cam, title=len(cams) > 1 or camera is None)
-        ArmArtist(ax, geo).set_pose(poses)
+        if scene is not None:
+            draw_scene(ax, scene, bounds)
+        ArmArtist(ax, geo, highlight=hot).set_pose(poses)
         for name in names:
             FrameTriad(ax, length, name if len(names) <= 8 else "").set_pose(
                 poses[arm.frame_index(name)])
@@ -184,7 +200,8 @@ def render_pose(arm: KinematicModel, q: npt.ArrayLike, out_path: str | Path, *,
     tool = arm.fk(qv)[:3, 3]
     dist = None if target is None else float(np.linalg.norm(tool - target.pose[:3, 3]))
     return PosePicture(out, tuple(cams), bounds,
-                       (float(tool[0]), float(tool[1]), float(tool[2])), dist)
+                       (float(tool[0]), float(tool[1]), float(tool[2])), dist,
+                       None if scene is None else scene.clearance)
 
 
 def render_path(arm: KinematicModel, qs: npt.ArrayLike, out_path: str | Path, *,
@@ -192,7 +209,7 @@ def render_path(arm: KinematicModel, qs: npt.ArrayLike, out_path: str | Path, *,
                 view: View = View.ISO, camera: Camera | None = None,
                 target: Target | None = None, bounds: Bounds | None = None,
                 geometry: BoundGeometry | None = None, title: str | None = None,
-                size: float = 5.0) -> PathPicture:
+                size: float = 5.0, scene: SceneDrawing | None = None) -> PathPicture:
     """Draw a planned move (see :func:`armctl.render.draw.draw_path`) and write the picture.
 
     Args:
@@ -209,6 +226,8 @@ def render_path(arm: KinematicModel, qs: npt.ArrayLike, out_path: str | Path, *,
         geometry: Pre-built bound geometry.
         title: Figure title.
         size: Size of one panel [in].
+        scene: The scene at the last sample (:func:`armctl.render.scene.scene_drawing`): the
+            table and the obstacles are drawn, and a pair in contact at the last pose in red.
 
     Returns:
         What was drawn, with the largest deviation of the samples from the line.
@@ -221,13 +240,18 @@ def render_path(arm: KinematicModel, qs: npt.ArrayLike, out_path: str | Path, *,
         pts = [geo.world_vertices(q[0]), geo.world_vertices(q[-1])]
         if line is not None:
             pts.append(np.asarray(line, dtype=float).reshape(-1, 3))
+        if scene is not None:
+            pts.append(scene.points())
         bounds = Bounds.around(np.vstack(pts))
+    hot = {} if scene is None else {name: CONTACT_COLOR for name in scene.highlighted}
     cams = [camera] if camera is not None else cameras_for(view)
     fig, axes = panel_figure(cams, size)
     tool_pts = np.zeros((0, 3))
     for ax, cam in zip(axes, cams, strict=False):
         setup_axes(ax, bounds, cam)
-        tool_pts = draw_path(ax, geo, q, line=line, frame=frame, ghosts=ghosts)
+        if scene is not None:
+            draw_scene(ax, scene, bounds)
+        tool_pts = draw_path(ax, geo, q, line=line, frame=frame, ghosts=ghosts, highlight=hot)
         if target is not None:
             draw_target(ax, target.pose, triad_length(bounds), target.oriented)
     axes[0].legend(fontsize=7, loc="upper left")

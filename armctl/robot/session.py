@@ -16,7 +16,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -25,10 +25,13 @@ import numpy.typing as npt
 
 from armctl.arm import Arm, load_arm
 from armctl.clock import Clock, default_clock
+from armctl.collision.errors import CollisionError
+from armctl.collision.model import CollisionModel
 from armctl.config.motion import ExitPolicy, MotionSpec
+from armctl.config.scene import SceneSpec
 from armctl.config.schema import JointRole, JointType
 from armctl.errors import ArmctlError, InputError
-from armctl.ik import Goal, IKResult, PositionGoal
+from armctl.ik import Goal, IKResult, IKStatus, PositionGoal
 from armctl.motion import (
     KeyframeProgram,
     MotionLimits,
@@ -39,6 +42,8 @@ from armctl.motion import (
     plan_program,
 )
 from armctl.motion.cartesian import LineOptions, plan_line
+from armctl.motion.collisions import trajectory_contact
+from armctl.motion.detour import DetourOptions, Planner, plan_detour
 from armctl.motion.errors import LimitViolation
 from armctl.robot.errors import MotionStopped
 from armctl.robot.executor import CycleInfo, Executor, JointBus, StreamResult
@@ -107,6 +112,10 @@ class Robot:
             bus's calibration and the servos' position limit registers (read from the bus).
         clock: Time base of motions and teaching (default
             :func:`~armctl.clock.default_clock`); a simulated bus must share it.
+        scene: The scene every plan is checked against (default: the arm's ``scene:``
+            section, else a table at the base; see :mod:`armctl.collision`).
+        collisions: Check plans for contacts (links, table, obstacles). Switching it off
+            leaves only the joint limits between a plan and the arm.
 
     Attributes:
         arm: The arm with the effective limits as its position limits: every planner, IK
@@ -117,8 +126,12 @@ class Robot:
 
     def __init__(self, arm: Arm, bus: JointBus, motion: MotionSpec | None = None, *,
                  speed: float | None = None, exit_policy: ExitPolicy | None = None,
-                 effective: EffectiveLimits | None = None, clock: Clock | None = None):
+                 effective: EffectiveLimits | None = None, clock: Clock | None = None,
+                 scene: SceneSpec | None = None, collisions: bool = True):
         self.config_arm = arm
+        self.scene = scene
+        self.check_collisions = collisions
+        self._collisions: CollisionModel | None = None
         self.clock = clock if clock is not None else default_clock()
         self.bus = bus
         self.effective = effective if effective is not None else _effective_limits(arm, bus)
@@ -155,8 +168,8 @@ class Robot:
     @classmethod
     def open(cls, config: str | Path | Arm, *, speed: float | None = None,
              exit_policy: ExitPolicy | None = None, hold: bool = True,
-             clock: Clock | None = None, port: str | None = None, sim: bool = False
-             ) -> Robot:
+             clock: Clock | None = None, port: str | None = None, sim: bool = False,
+             scene: SceneSpec | None = None, collisions: bool = True) -> Robot:
         """Load an arm, open its bus and hold the present pose with torque on.
 
         Args:
@@ -173,6 +186,8 @@ class Robot:
                 the pty of a running ``armctl sim``).
             sim: Use the built-in simulated bus, also for an arm without a ``bus:`` section
                 (one simulated servo per joint, see :mod:`armctl.robot.bus_choice`).
+            scene: The scene plans are checked against (default: the arm's).
+            collisions: Check plans for contacts (default on).
 
         Raises:
             InputError: Both ``port`` and ``sim``, or ``port`` for an arm without a ``bus:``
@@ -191,7 +206,8 @@ class Robot:
         clock = clock if clock is not None else default_clock()
         bus = ArmBus.from_spec(arm.spec, calibration, clock=clock).open()
         try:
-            robot = cls(arm, bus, speed=speed, exit_policy=exit_policy, clock=clock)
+            robot = cls(arm, bus, speed=speed, exit_policy=exit_policy, clock=clock,
+                        scene=scene, collisions=collisions)
             robot._owns_bus = True
             if hold:
                 robot.hold()
@@ -247,16 +263,19 @@ class Robot:
         """Hold (torque stays on), park (move to the 'park' pose, then hold) or release.
 
         Parking is a motion like any other: a stop signal during it decelerates and holds.
+        When the straight joint-space move to ``park`` collides, a way around is planned
+        (:func:`~armctl.motion.detour.plan_detour`); when none is found the arm holds.
 
         Raises:
             MotionStopped: Parking was stopped; the arm holds where it stopped.
+            CollisionError, DetourError: No collision-free way to park; the arm holds.
         """
         if policy is ExitPolicy.PARK:
             if "park" not in self.arm.spec.poses:
                 logger.warning("arm %r has no 'park' pose; holding instead", self.arm.name)
                 return
             plan = self.plan_joints(self.arm.named_pose("park"), min(self.speed, 0.5),
-                                    "park (exit policy)")
+                                    "park (exit policy)", DetourOptions(planner=Planner.BUILTIN))
             self.execute(plan)
         elif policy is ExitPolicy.RELEASE:
             logger.warning("releasing torque: a raised arm will fall")
@@ -339,21 +358,77 @@ class Robot:
                                        "torque off")
         return np.clip(q, lo, hi)
 
+    @property
+    def collisions(self) -> CollisionModel | None:
+        """The collision model plans are checked against (``None``: checking is off)."""
+        if not self.check_collisions:
+            return None
+        if self._collisions is None:
+            self._collisions = CollisionModel.of(self.arm, self.scene)
+        return self._collisions
+
+    def check_collisions_of(self, plan: MotionPlan) -> None:
+        """Refuse a plan that brings a link into contact with another, the table or an obstacle.
+
+        Checked continuously (nothing can pass through a thin obstacle between samples). A
+        pair already in contact at the plan's start may separate but not go deeper.
+
+        Raises:
+            CollisionError: Names the pair, when and at which joints, and how deep; nothing
+                moves.
+        """
+        model = self.collisions
+        if model is None:
+            return
+        contact = trajectory_contact(plan.trajectory, self.limits, model.escaping(plan.start))
+        if contact is not None:
+            raise CollisionError(plan.description or "the motion", contact,
+                                 self.arm.joint_names,
+                                 "Choose another goal or add a keyframe around it, move an "
+                                 "obstacle, or edit the scene")
+
     def _speed(self, speed: float | None) -> float:
         return self.speed if speed is None else float(speed)
 
     def plan_joints(self, q: npt.ArrayLike, speed: float | None = None,
-                    description: str = "joint move") -> MotionPlan:
+                    description: str = "joint move", detour: DetourOptions | None = None
+                    ) -> MotionPlan:
         """A checked joint move from the present position.
+
+        Args:
+            q: Goal joint values [rad]/[m].
+            speed: Speed factor (default: the robot's).
+            description: Text for the plan.
+            detour: When the straight joint-space move collides, plan a way around with these
+                options (:func:`~armctl.motion.detour.plan_detour`); ``None``: refuse it.
 
         Raises:
             JointLimitError: A goal outside the effective limits, naming the limit's source
                 (config, calibration or servo register) and how to change it; nothing moves.
+            CollisionError: The move collides (and no detour was asked for, or the goal
+                itself collides); nothing moves.
+            DetourError: No way around was found within the detour's time budget.
         """
         goal = self.effective.check(self.arm.as_q(q, "goal of the move"), "goal of the move")
+        return self._joint_plan(self.plan_start(), goal, speed, description, detour)
+
+    def _joint_plan(self, start: Array, goal: Array, speed: float | None, description: str,
+                    detour: DetourOptions | None) -> MotionPlan:
+        """A checked joint move ``start`` -> ``goal``, around obstacles if asked for."""
         with self._limit_sources():
-            return plan_joint_move(self.plan_start(), goal, self.limits, self._speed(speed),
-                                   description)
+            plan = plan_joint_move(start, goal, self.limits, self._speed(speed), description)
+        try:
+            self.check_collisions_of(plan)
+        except CollisionError:
+            model = self.collisions
+            if detour is None or model is None:
+                raise
+            with self._limit_sources():
+                plan = plan_detour(model.escaping(start), start, goal, self.limits,
+                                   self._speed(speed), detour)
+            plan = replace(plan, description=f"{description}, {plan.description}")
+            self.check_collisions_of(plan)
+        return plan
 
     @contextmanager
     def _limit_sources(self) -> Iterator[None]:
@@ -372,14 +447,24 @@ class Robot:
 
     def solve(self, goal: Goal, solver: str = "auto", q0: npt.ArrayLike | None = None
               ) -> IKResult:
-        """IK from the present joints.
+        """IK from the present joints, keeping out of contact (with :attr:`collisions`).
+
+        Answers that bring a link into contact are discarded and the search goes on (see
+        :meth:`armctl.arm.Arm.ik`, ``avoid``).
 
         Raises:
             IKFailedError: A :class:`NoSolutionError` with the closest distance found, when the
                 goal cannot be reached; its ``details`` hold the closest joints and errors.
+            CollisionError: Every answer found for the goal brings a link into contact (names
+                the shallowest contact); nothing moves.
         """
         start = self.joints() if q0 is None else np.asarray(q0, dtype=float)
-        res = self.arm.ik(goal, q0=start, solver=solver)
+        res = self.arm.ik(goal, q0=start, solver=solver, avoid=self.collisions)
+        if res.status is IKStatus.COLLIDES and res.contact is not None:
+            raise CollisionError("every IK answer found for the goal", res.contact,
+                                 self.arm.joint_names,
+                                 "The goal puts a link in contact: choose another goal or "
+                                 "orientation, or edit the scene")
         if not res.success:
             narrowed = self.effective.narrowed()
             which = ", ".join(f"{n} ({'/'.join(s)})" for n, s in narrowed.items())
@@ -390,7 +475,7 @@ class Robot:
 
     def plan_pose(self, goal: Goal, *, linear: bool = False, speed: float | None = None,
                   solver: str = "auto", tcp_speed: float | None = None,
-                  tcp_angular_speed: float | None = None
+                  tcp_angular_speed: float | None = None, detour: DetourOptions | None = None
                   ) -> tuple[MotionPlan, IKResult | None]:
         """A checked move of the tool to a goal: joint-space (IK at the goal) or a straight line.
 
@@ -402,6 +487,9 @@ class Robot:
             NoSolutionError: Goal unreachable (nothing moves).
             PathError: A straight line that cannot be followed (with where it fails).
         """
+        if linear and detour is not None:
+            raise InputError("a straight-line move that collides is refused, never replaced by "
+                             "a detour: plan a detour with a joint-space move (linear=False)")
         if not linear and (tcp_speed is not None or tcp_angular_speed is not None):
             raise InputError("a TCP speed applies to a straight-line move (linear=True); a "
                              "joint-space move is timed by the speed factor")
@@ -415,6 +503,7 @@ class Robot:
             with self._limit_sources():
                 plan = plan_line(self.arm, start, goal, self.limits, self._speed(speed),
                                  options)
+            self.check_collisions_of(plan)
             return plan, None
         res = self.solve(goal, solver, start)
         # Keep joints the goal does not involve (the gripper) where they are.
@@ -424,9 +513,7 @@ class Robot:
             if i not in moving:
                 q[i] = start[i]
         q = self.effective.check(q, "IK solution of the goal")
-        with self._limit_sources():
-            plan = plan_joint_move(start, q, self.limits, self._speed(speed), "move to pose")
-        return plan, res
+        return self._joint_plan(start, q, speed, "move to pose", detour), res
 
     # ---- moving -------------------------------------------------------------------------------
     def execute(self, plan: MotionPlan, on_cycle: Callable[[CycleInfo], None] | None = None,
@@ -467,11 +554,12 @@ class Robot:
         :func:`~armctl.motion.plan_joint_move` with the config's limits or by another robot, is
         not clipped into them), within the velocity and acceleration limits, and start at the
         present position (within :attr:`start_tolerance`); no servo may be in the alarm
-        lock-out.
+        lock-out; no link may come into contact (:meth:`check_collisions_of`).
 
         Raises:
             ServoAlarmError: A servo reported a hardware alarm and was not cleared (names it,
                 and how to clear it).
+            CollisionError: A contact along the plan (names the pair, time, joints, depth).
             JointLimitError: A sample outside the effective limits, naming the limit's source.
             LimitViolation: A sample beyond a velocity or acceleration limit.
             InputError: A plan for another number of joints, or one that starts elsewhere.
@@ -501,6 +589,7 @@ class Robot:
             raise InputError(f"the plan starts {far} away from the present position of joint "
                              f"{self.arm.joint_names[i]!r}; plan again from the present "
                              "position")
+        self.check_collisions_of(plan)
 
     def _locate(self, stopped: MotionStopped) -> None:
         """Record on ``stopped`` where the arm stopped (joints read back, else the held goal)."""
@@ -518,9 +607,10 @@ class Robot:
         stopped.locate(self.arm.values_by_name(q), pose[:3, 3], matrix_to_rpy(pose[:3, :3]))
 
     def move_joints(self, q: npt.ArrayLike, speed: float | None = None, dry_run: bool = False,
-                    on_cycle: Callable[[CycleInfo], None] | None = None) -> MoveReport:
-        """Move all joints to ``q`` [rad]/[m] together."""
-        plan = self.plan_joints(q, speed)
+                    on_cycle: Callable[[CycleInfo], None] | None = None,
+                    detour: DetourOptions | None = None) -> MoveReport:
+        """Move all joints to ``q`` [rad]/[m] together (around obstacles with ``detour``)."""
+        plan = self.plan_joints(q, speed, detour=detour)
         if dry_run:
             return MoveReport(plan)
         res = self.execute(plan, on_cycle)
@@ -531,8 +621,8 @@ class Robot:
                      dry_run: bool = False,
                      on_cycle: Callable[[CycleInfo], None] | None = None,
                      on_plan: Callable[[MotionPlan, IKResult | None], bool] | None = None,
-                     tcp_speed: float | None = None, tcp_angular_speed: float | None = None
-                     ) -> MoveReport:
+                     tcp_speed: float | None = None, tcp_angular_speed: float | None = None,
+                     detour: DetourOptions | None = None) -> MoveReport:
         """Move the tool to a goal (or to position ``xyz`` [m]); report the reached pose.
 
         The reached pose is FK of the joints read back after the servos settled.
@@ -553,13 +643,16 @@ class Robot:
             tcp_speed: With ``linear``: largest speed of the goal's frame [m/s].
             tcp_angular_speed: With ``linear``: largest angular speed of the goal's frame
                 [rad/s].
+            detour: For a joint-space move that collides: plan a way around with these
+                options (``None``: refuse it). A straight line is never replaced by a detour.
         """
         if goal is None:
             if xyz is None:
                 raise InputError("give a goal or xyz")
             goal = PositionGoal(np.asarray(xyz, dtype=float))
         plan, ik = self.plan_pose(goal, linear=linear, speed=speed, solver=solver,
-                                  tcp_speed=tcp_speed, tcp_angular_speed=tcp_angular_speed)
+                                  tcp_speed=tcp_speed, tcp_angular_speed=tcp_angular_speed,
+                                  detour=detour)
         if dry_run or (on_plan is not None and not on_plan(plan, ik)):
             return MoveReport(plan, None, ik)
         res = self.execute(plan, on_cycle)
@@ -568,18 +661,22 @@ class Robot:
         return MoveReport(plan, res, ik, reached, dp, dr)
 
     def home(self, speed: float | None = None, dry_run: bool = False,
-             on_cycle: Callable[[CycleInfo], None] | None = None) -> MoveReport:
-        """Move to the arm's ``home`` pose."""
-        return self._named("home", speed, dry_run, on_cycle)
+             on_cycle: Callable[[CycleInfo], None] | None = None,
+             detour: DetourOptions | None = None) -> MoveReport:
+        """Move to the arm's ``home`` pose (around obstacles with ``detour``)."""
+        return self._named("home", speed, dry_run, on_cycle, detour)
 
     def park(self, speed: float | None = None, dry_run: bool = False,
-             on_cycle: Callable[[CycleInfo], None] | None = None) -> MoveReport:
-        """Move to the arm's ``park`` pose."""
-        return self._named("park", speed, dry_run, on_cycle)
+             on_cycle: Callable[[CycleInfo], None] | None = None,
+             detour: DetourOptions | None = None) -> MoveReport:
+        """Move to the arm's ``park`` pose (around obstacles with ``detour``)."""
+        return self._named("park", speed, dry_run, on_cycle, detour)
 
     def _named(self, pose: str, speed: float | None, dry_run: bool,
-               on_cycle: Callable[[CycleInfo], None] | None) -> MoveReport:
-        plan = self.plan_joints(self.arm.named_pose(pose), speed, f"move to the {pose!r} pose")
+               on_cycle: Callable[[CycleInfo], None] | None,
+               detour: DetourOptions | None = None) -> MoveReport:
+        plan = self.plan_joints(self.arm.named_pose(pose), speed, f"move to the {pose!r} pose",
+                                detour)
         if dry_run:
             return MoveReport(plan)
         res = self.execute(plan, on_cycle)
@@ -609,8 +706,10 @@ class Robot:
             return q
 
         with self._limit_sources():
-            return plan_program(program, self.arm, self.limits, self.plan_start(),
+            plan = plan_program(program, self.arm, self.limits, self.plan_start(),
                                 options or PlaybackOptions(), ik)
+        self.check_collisions_of(plan)
+        return plan
 
     def _check_keyframes(self, program: KeyframeProgram) -> None:
         """Refuse joint values that the config allows but the effective limits do not."""

@@ -13,7 +13,13 @@ Nothing is sent raw. Each cycle the leader's target is
 * rate-limited: the command moves toward the target no faster than the follower's velocity
   limit and changes its speed no faster than the acceleration limit, braking in time to stop
   at the target; a jump of the leader larger than the velocity limit allows in one cycle is
-  counted per joint.
+  counted per joint;
+* kept out of contact (when the follower checks collisions, as it does by default): a command
+  is sent only if the step to it and the stop from it (a deceleration at the acceleration
+  limit, each joint's travel at most ``v^2 / 2a``) are certified free by the follower's
+  collision model. Otherwise the follower brakes toward the stop point of its last safe command
+  and waits there until the leader asks for a pose it can reach safely; the cycles are counted
+  and the pair is logged once.
 
 :meth:`Teleop.start` first moves the follower to the leader's pose through the motion planner
 (jerk-limited, at a modest speed), then :meth:`Teleop.run` follows. A stop request (SIGINT /
@@ -40,6 +46,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from armctl.collision.contact import Contact
+from armctl.collision.model import CollisionModel
 from armctl.errors import (
     ArmctlError,
     BusError,
@@ -186,6 +194,8 @@ class TeleopCycle:
         command: Follower goals written this cycle (follower bus order).
         clamped: Per follower bus joint, whether the target was clamped this cycle.
         rate_limited: Per follower bus joint, whether the command was rate-limited.
+        blocked: The pair that kept the follower from following this cycle (e.g.
+            ``'gripper_link' and 'table'``), else ``""``.
     """
 
     t: float
@@ -194,6 +204,7 @@ class TeleopCycle:
     command: Array
     clamped: Mask
     rate_limited: Mask
+    blocked: str = ""
 
 
 @dataclass(frozen=True)
@@ -213,6 +224,7 @@ class TeleopStats:
             velocity limit allows in one cycle.
         recorded: Keyframes recorded.
         stopped_by: What ended it ("" when the duration ran out).
+        blocked: Cycles in which a contact ahead kept the follower from following, by pair.
     """
 
     rate_hz: float
@@ -225,6 +237,7 @@ class TeleopStats:
     rate_limited: dict[str, int]
     recorded: int = 0
     stopped_by: str = ""
+    blocked: dict[str, int] = field(default_factory=dict)
 
     @property
     def achieved_rate(self) -> float:
@@ -405,7 +418,11 @@ class Teleop:
         self._acc = np.zeros(len(fol_names))
         self.clamped: dict[str, int] = {}
         self.rate_limited: dict[str, int] = {}
+        self.blocked: dict[str, int] = {}
         self.stop = StopRequest()
+        self._guard: CollisionModel | None = None
+        self._safe_stop: Array | None = None  # where the last safe command comes to rest
+        self._full: Array = np.zeros(follower.arm.dof)  # the follower's joints (arm order)
 
     # ---- mapping ------------------------------------------------------------------------------
     def target(self, leader_q: Array) -> Array:
@@ -480,6 +497,47 @@ class Teleop:
                             "limit allows; rate-limited (counted, logged once per joint)", name)
             self.rate_limited[name] = self.rate_limited.get(name, 0) + 1
 
+    # ---- keeping out of contact ---------------------------------------------------------------
+    def _stop_point(self, cmd: Array, vel: Array) -> Array:
+        """Where each joint comes to rest decelerating at its acceleration limit (bus order)."""
+        a = np.maximum(self.acceleration, 1e-12)
+        return np.clip(cmd + vel * np.abs(vel) / (2.0 * a), self.lower, self.upper)
+
+    def _ahead(self, prev: Array, cmd: Array, vel: Array) -> Contact | None:
+        """A contact on the step ``prev`` -> ``cmd`` or on the stop from ``cmd``, else None."""
+        guard = self._guard
+        if guard is None:
+            return None
+        stop = self._stop_point(cmd, vel)
+        full = np.tile(self._full, (3, 1))
+        idx = self.follower.executor.idx
+        full[0, idx], full[1, idx], full[2, idx] = prev, cmd, stop
+        travel = np.abs(np.diff(full, axis=0))
+        return guard.first_contact_on_samples(np.array([0.0, 1.0, 2.0]), full, travel)
+
+    def _guarded(self, prev: tuple[Array, Array, Array], target: Array, dt: float
+                 ) -> tuple[Array, Mask, Mask, str]:
+        """:meth:`limit`, unless the command's step or stop would touch: then brake instead."""
+        cmd, clamped, rate_limited = self.limit(target, dt)
+        if self._guard is None:
+            return cmd, clamped, rate_limited, ""
+        contact = self._ahead(prev[0], cmd, self._vel)
+        if contact is None:
+            self._safe_stop = self._stop_point(cmd, self._vel)
+            return cmd, clamped, rate_limited, ""
+        # keep to the last safe command's stop: every state on the way stops inside it
+        self._cmd, self._vel, self._acc = prev
+        assert self._safe_stop is not None
+        cmd, _, _ = self.limit(self._safe_stop, dt)
+        pair = contact.pair
+        if pair not in self.blocked:
+            logger.warning("teleoperation: the leader's pose would bring %s within %.1f mm "
+                           "(padding %.1f mm); the follower waits (counted, logged once per "
+                           "pair)", pair, max(contact.distance, 0.0) * 1000,
+                           contact.padding * 1000)
+        self.blocked[pair] = self.blocked.get(pair, 0) + 1
+        return cmd, clamped, rate_limited, pair
+
     # ---- running ------------------------------------------------------------------------------
     def start(self) -> MotionPlan | None:
         """Leader torque off; move the follower to the leader's pose (planned, jerk-limited).
@@ -512,6 +570,11 @@ class Teleop:
         self._cmd = np.asarray(last if last is not None else goal_bus, dtype=float).copy()
         self._vel = np.zeros_like(self._cmd)
         self._acc = np.zeros_like(self._cmd)
+        self._safe_stop = self._cmd.copy()
+        self._full = fol.plan_start()
+        self._full[fol.executor.idx] = self._cmd
+        model = fol.collisions
+        self._guard = None if model is None else model.escaping(self._full)
         return moved
 
     def run(self, on_cycle: Callable[[TeleopCycle], None] | None = None) -> TeleopStats:
@@ -566,7 +629,8 @@ class Teleop:
                         stop.request(f"the leader's bus failed ({exc})")
                         break
                     target = self.target(leader_q)
-                    cmd, clamped, rate_limited = self.limit(target, dt)
+                    prev = (self._cmd.copy(), self._vel.copy(), self._acc.copy())
+                    cmd, clamped, rate_limited, blocked = self._guarded(prev, target, dt)
                     fol.bus.write_joints(cmd)
                     fol.executor.last_command = cmd
                     lat.append(clock.now() - begin)
@@ -577,7 +641,7 @@ class Teleop:
                     if on_cycle is not None:
                         try:
                             on_cycle(TeleopCycle(k * dt, leader_q, target, cmd, clamped,
-                                                 rate_limited))
+                                                 rate_limited, blocked))
                         except KeyboardInterrupt:
                             stop.request("Ctrl-C (KeyboardInterrupt)")
                     k += 1
@@ -597,7 +661,7 @@ class Teleop:
                            float(np.median(arr)), float(np.percentile(arr, 99)),
                            dict(self.clamped), dict(self.rate_limited),
                            len(self.recorder.program.keyframes) if self.recorder else 0,
-                           reason)
+                           reason, dict(self.blocked))
 
     def _controlled_stop(self, full: Array, failure: BaseException | None) -> None:
         """Decelerate from the commanded state within the limits, then hold.

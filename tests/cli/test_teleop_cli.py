@@ -44,8 +44,10 @@ def test_bundled_pairs_follow_and_report_json(capsys: pytest.CaptureFixture[str]
 
 
 def test_scale_option_clamps_and_says_so(capsys: pytest.CaptureFixture[str]) -> None:
+    # the follower's shoulder leans back (an offset inside its limits), so that the elbow at its
+    # clamped upper limit folds the forearm over the base, not into the table
     code, out, err = run(capsys, "so101_leader", "so101", "--duration", "0.3",
-                         "--scale", "elbow_flex=1:5")
+                         "--scale", "elbow_flex=1:5", "--scale", "shoulder_lift=1:-1.3")
     assert code == 0, err
     assert "clamped to the effective limits (cycles): elbow_flex" in out
     assert "clamped" in err  # the warning, once

@@ -215,9 +215,9 @@ def test_python_api_refuses_before_torque_and_ik_stays_inside(narrow: Path) -> N
             robot.move_joints([0, 1.5, 0, 0, 0, 0])
         _untouched(sim)
         # IK answers inside the effective limits: a tool position the config arm reaches with
-        # the shoulder at 1.3 rad
+        # the shoulder at -1.3 rad (leaning back: the move there keeps the links off the base)
         cfg = robot.config_arm
-        target = cfg.fk(np.array([0.2, 1.3, -0.4, 0.3, 0.0, 0.01]))[:3, 3]
+        target = cfg.fk(np.array([0.2, -1.3, 0.4, -0.3, 0.0, 0.01]))[:3, 3]
         plan, ik = robot.plan_pose(PositionGoal(target), speed=1.0)
         assert ik is not None and ik.success
         lo, hi = robot.effective.lower, robot.effective.upper

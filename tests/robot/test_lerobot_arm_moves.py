@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from collision_free import free_goal
 
 from armctl.arm import load_arm
 from armctl.config.motion import ExitPolicy
@@ -23,9 +24,15 @@ pytestmark = pytest.mark.timeout(120)
 def test_default_speed_moves_arrive(name: str, seed: int) -> None:
     arm = load_arm(name)
     rng = np.random.default_rng(seed)
-    q_goal = arm.middle() + 0.8 * (arm.sample(rng) - arm.middle())
-    q_goal = np.clip(q_goal, arm.lower + 0.05, arm.upper - 0.05)
+
+    def draw() -> np.ndarray:
+        q = arm.middle() + 0.8 * (arm.sample(rng) - arm.middle())
+        return np.clip(q, arm.lower + 0.05, arm.upper - 0.05)
+
     with Robot.open(arm, exit_policy=ExitPolicy.HOLD) as robot:
+        assert robot.collisions is not None
+        # the first random goal that the arm reaches without hitting the table or itself
+        q_goal = free_goal(robot.collisions, robot.plan_start(), draw)
         robot.move_joints(q_goal)
         measured = robot.joints()
     assert np.max(np.abs(measured - q_goal)) < 0.01  # the arrival tolerance

@@ -8,6 +8,7 @@ from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from collision_free import free_pose_goal
 
 from armctl.arm import Arm, load_arm
 from armctl.config.motion import ExitPolicy
@@ -37,11 +38,15 @@ SIM_ARMS = ("so101", "omx", "wx250s", "ur5e", "panda", "torso")
 def test_move_to_pose_reaches_the_goal_by_fk_of_read_back_joints(name: str) -> None:
     arm = load_arm(name)
     rng = np.random.default_rng(7)
-    # a reachable goal: the tool position of a configuration halfway to a random one
-    q_goal = arm.middle() + 0.25 * (arm.sample(rng) - arm.middle())
-    target = arm.fk(q_goal)[:3, 3]
+    home = arm.named_pose("home")
     with Robot.open(arm, speed=0.7, exit_policy=ExitPolicy.HOLD) as robot:
-        report = robot.move_to_pose(PositionGoal(target))
+        # a reachable goal: the tool position of a configuration a quarter of the way from home
+        # to a random one, the first one the arm reaches without contact (the middle of the
+        # ranges does not do on every arm: the panda's wrist capsules overlap there)
+        _, goal = free_pose_goal(robot, lambda: home + 0.25 * (arm.sample(rng) - home),
+                                 lambda q: PositionGoal(arm.fk(q)[:3, 3]))
+        target = goal.position
+        report = robot.move_to_pose(goal)
         measured = robot.joints()
     reached = arm.fk(measured)[:3, 3]
     assert np.linalg.norm(reached - target) < 2e-3  # servo resolution and settling

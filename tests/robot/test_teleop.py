@@ -97,6 +97,9 @@ def test_target_outside_the_limits_is_clamped_and_reported(
     with pair("so101_leader", "so101") as (lead, fol):
         tele = Teleop(lead, fol, TeleopOptions(duration=1.0))
         lead.bus.set_torque(False)
+        # the shoulder leans back, so that the elbow at its upper limit folds the forearm over
+        # the base, not into the table
+        guide(lead, {"shoulder_lift": -1.3})
         tele.start()
         j = fol.bus.joint_names.index("elbow_flex")
         # the leader's elbow is pushed past the follower's effective upper limit, via the scale

@@ -137,7 +137,8 @@ def test_unplugged_during_a_cli_move(tmp_path: Path, capsys: pytest.CaptureFixtu
     timer = threading.Timer(0.5, sim.unplug)
     timer.start()
     try:
-        code = main(["move-joints", str(cfg), "1.2", "0.8", "0.8", "0", "0", "0.02",
+        # (the shoulder leans back: forward, the upper arm would fold into the base)
+        code = main(["move-joints", str(cfg), "1.2", "-0.8", "0.8", "0", "0", "0.02",
                      "--speed", "0.3"])
     finally:
         timer.cancel()

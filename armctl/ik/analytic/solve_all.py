@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +38,10 @@ from armctl.ik.goals import Goal, PoseGoal
 from armctl.kinematics.model import KinematicModel
 from armctl.spatial import orthonormalize, transform_inverse
 from armctl.typing import Array
+
+if TYPE_CHECKING:
+    from armctl.collision.contact import Contact
+    from armctl.collision.model import CollisionModel
 
 __all__ = ["ACCEPT", "CONTINUUM", "TWINS", "IKSolutions", "Target", "acceptance", "as_target",
            "ik_all"]
@@ -72,6 +77,9 @@ class IKSolutions:
         free: Names of the joints held at their ``q_ref`` value (the free joint of a redundant
             arm; for a position goal, every joint but the three that place the point).
         q_ref: The reference configuration the rows are sorted by [rad].
+        contacts: ``None`` when collisions were not checked; else per row the deepest contact
+            of that configuration (pair, distance, depth), or ``None`` for a row free of
+            contact (see :meth:`checked`).
     """
 
     q: Array
@@ -82,20 +90,43 @@ class IKSolutions:
     family: str
     free: tuple[str, ...]
     q_ref: Array
+    contacts: tuple[Contact | None, ...] | None = None
 
     def __len__(self) -> int:
         return int(self.q.shape[0])
 
     @property
     def valid(self) -> Array:
-        """The rows inside the joint limits ``(k, dof)``, nearest to ``q_ref`` first."""
-        return self.q[self.within_limits]
+        """The rows inside the joint limits ``(k, dof)``, nearest to ``q_ref`` first.
+
+        When collisions were checked (:meth:`checked`), only the rows also free of contact.
+        """
+        keep = self.within_limits
+        if self.contacts is not None:
+            keep = keep & self.collision_free
+        return self.q[keep]
 
     @property
     def best(self) -> Array | None:
         """The valid solution nearest to ``q_ref``, or None when there is none."""
         v = self.valid
         return v[0] if len(v) else None
+
+    @property
+    def collision_free(self) -> npt.NDArray[np.bool_]:
+        """``(m,)`` whether each row is free of contact.
+
+        Raises:
+            InputError: If collisions were not checked (see :meth:`checked`).
+        """
+        if self.contacts is None:
+            raise InputError("these solutions were not checked for collisions; call "
+                             "checked(CollisionModel.of(arm)) or pass avoid= to ik_all")
+        return np.array([c is None for c in self.contacts], dtype=bool)
+
+    def checked(self, avoid: CollisionModel) -> IKSolutions:
+        """These solutions, each marked free or in contact by the collision checker ``avoid``."""
+        return replace(self, contacts=tuple(avoid.contact(q) for q in self.q))
 
     def distinct(self, rotary: npt.ArrayLike, tol: float | npt.ArrayLike | None = None
                  ) -> IKSolutions:
@@ -129,9 +160,11 @@ class IKSolutions:
             else:
                 reps.append(i)
         keep = np.array(sorted(reps), dtype=int)
+        contacts = (None if self.contacts is None else
+                    tuple(self.contacts[int(i)] for i in keep))
         return IKSolutions(self.q[keep], self.within_limits[keep], self.position_error[keep],
                            self.rotation_error[keep], self.singular, self.family, self.free,
-                           self.q_ref)
+                           self.q_ref, contacts)
 
 
 @dataclass(frozen=True)

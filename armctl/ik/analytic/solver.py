@@ -1,6 +1,7 @@
 """The ``"analytic"`` entry of the IK solver registry.
 
-It returns the valid closed-form solution nearest to the start configuration.
+It returns the valid closed-form solution nearest to the start configuration (with a
+collision checker, ``options.avoid``: the nearest one that is also free of contact).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy.typing as npt
 
 from armctl.config.schema import JointType
 from armctl.errors import InputError
-from armctl.ik.analytic.solve_all import acceptance, ik_all
+from armctl.ik.analytic.solve_all import IKSolutions, acceptance, ik_all
 from armctl.ik.goals import Goal
 from armctl.ik.options import IKOptions
 from armctl.ik.result import IKResult, IKStatus, finish
@@ -32,7 +33,10 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: npt.NDArray[np.flo
         goals: Exactly one goal (pose, position + direction, or position).
         q0: Start configuration: the solutions are ranked by distance to it, and redundant joints
             are held at its values.
-        options: Unused (the closed form has no iterations or restarts).
+        options: Only ``avoid`` is used (the closed form has no iterations or restarts): with
+            a collision checker the nearest valid solution free of contact is returned, or,
+            when every valid one collides, the one with the shallowest contact (status
+            ``COLLIDES``).
         constraints: Must be empty.
 
     Returns:
@@ -56,7 +60,20 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: npt.NDArray[np.flo
         sols.singular) else ""
     best = sols.best
     distinct = sols.distinct([t is not JointType.PRISMATIC for t in model.joint_types])
-    if best is not None:
+    avoid = options.avoid
+    if best is not None and avoid is not None:
+        checked = distinct.checked(avoid)
+        free = checked.q[checked.within_limits & checked.collision_free]
+        inside = int(distinct.within_limits.sum())
+        msg = (f"{inside} of {len(distinct)} distinct solutions inside the limits, "
+               f"{len(free)} of them free of contact")
+        if len(free):
+            q, status = free[0], IKStatus.CONVERGED
+        else:
+            valid = [i for i in range(len(checked)) if checked.within_limits[i]]
+            q = checked.q[min(valid, key=lambda i: _depth(checked, i))]
+            status = IKStatus.COLLIDES
+    elif best is not None:
         q, status = best, IKStatus.CONVERGED
         msg = (f"{int(distinct.within_limits.sum())} of {len(distinct)} distinct solutions "
                "inside the limits")
@@ -69,4 +86,11 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: npt.NDArray[np.flo
     if note:
         msg = f"{msg}; {note}"
     return finish(model, goals, q, solver="analytic", status=status, iterations=0, restarts=0,
-                  started=started, message=msg, start=q0)
+                  started=started, message=msg, start=q0, avoid=avoid)
+
+
+def _depth(sols: IKSolutions, i: int) -> float:
+    """How deep solution ``i`` is in contact [m] (0 when free)."""
+    contacts = sols.contacts or ()
+    c = contacts[i] if i < len(contacts) else None
+    return 0.0 if c is None else c.depth

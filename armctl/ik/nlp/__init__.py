@@ -17,6 +17,7 @@ from armctl.ik.nlp.constraints import (
 from armctl.ik.nlp.keep_out import KeepOutBox, KeepOutSphere
 from armctl.ik.nlp.options import Method, NLPOptions
 from armctl.ik.nlp.problem import build_count, clear_cache
+from armctl.ik.nlp.scene import KeepAboveTable, KeepOutCapsule, KeepOutOrientedBox, scene_keep_out
 
 __all__ = [
     "AxisInCone",
@@ -24,7 +25,10 @@ __all__ = [
     "InBox",
     "InHalfSpace",
     "InSphere",
+    "KeepAboveTable",
     "KeepOutBox",
+    "KeepOutCapsule",
+    "KeepOutOrientedBox",
     "KeepOutSphere",
     "Method",
     "NLPOptions",
@@ -32,4 +36,5 @@ __all__ = [
     "OnPlane",
     "build_count",
     "clear_cache",
+    "scene_keep_out",
 ]

@@ -77,7 +77,7 @@ class NLPOptions(IKOptions):
 
     @classmethod
     def from_options(cls, options: IKOptions | None) -> NLPOptions:
-        """NLP options from the shared ones: the time budget, restarts and seed are kept.
+        """NLP options from the shared ones: the time budget, restarts, seed and checker are kept.
 
         ``max_iterations`` of plain :class:`IKOptions` counts the cheap steps of the numerical
         solvers; an NLP iteration does far more, so it is capped at the NLP default.
@@ -87,7 +87,8 @@ class NLPOptions(IKOptions):
         if options is None:
             return cls()
         return cls(max_iterations=min(options.max_iterations, cls.max_iterations),
-                   time_limit=options.time_limit, restarts=options.restarts, seed=options.seed)
+                   time_limit=options.time_limit, restarts=options.restarts, seed=options.seed,
+                   avoid=options.avoid)
 
     def preferred_array(self, dof: int) -> npt.NDArray[np.float64] | None:
         """The preferred posture as an array, checked against the arm's DOF."""

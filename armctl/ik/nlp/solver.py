@@ -17,6 +17,12 @@ An attempt that ends close to the goals but short of their tolerance (the regula
 a little) is polished once with the regularisation centred on its own answer. The best attempt
 (least hard-constraint violation, then least goal error) is returned when none succeeds, with
 status ``INFEASIBLE`` when the hard constraints could not be met together.
+
+With a collision checker (``options.avoid``) the scene's obstacles become hard keep-out
+constraints (:func:`armctl.ik.nlp.scene.scene_keep_out`, the checker's own shapes), and an
+attempt counts as a success only when the checker finds its answer free (contacts between the
+arm's own links are not constraints: such an answer is set aside and the next start tried);
+when every answer that met the goals collides, the shallowest is returned as ``COLLIDES``.
 """
 
 from __future__ import annotations
@@ -131,6 +137,11 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     started = time.perf_counter()
     opts = NLPOptions.from_options(options)
     cons = check_constraints(model, constraints)
+    avoid = opts.avoid
+    if avoid is not None:
+        from armctl.ik.nlp.scene import scene_keep_out
+
+        cons = (*cons, *scene_keep_out(avoid))
     hard = [c for c in cons if c.hard]
     problem = get_problem(model, goals, cons, opts)
     pref = opts.preferred_array(model.dof)
@@ -151,7 +162,7 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     overrun: list[float] = []
     best: tuple[float, float] | None = None
     best_q = np.array(q0, dtype=float)
-    iterations, attempts, streak, flagged = 0, 0, 0, 0
+    iterations, attempts, streak, flagged, collided = 0, 0, 0, 0, 0
     status = IKStatus.MAX_ITERATIONS
     for origin, seed in _seeds(model, goals, q0, opts, overrun):
         if attempts > opts.restarts:
@@ -178,6 +189,11 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         iterations += its
         streak = streak + 1 if infeasible else 0
         flagged += infeasible
+        if merit[2] and avoid is not None:
+            contact = avoid.contact(model.wrap_toward(q, q0))
+            if contact is not None:  # met everything but collides: rank it behind free ones
+                merit = (merit[0] + contact.depth, merit[1], False)
+                collided += 1
         if best is None or merit[:2] < best:
             best, best_q = merit[:2], q
         if merit[2]:
@@ -191,10 +207,12 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         # infeasible from several starts
         status = IKStatus.INFEASIBLE
     best_q = model.wrap_toward(best_q, q0)  # the same pose, rotary joints nearest the start
+    message = f"{problem.method.value}, {attempts} attempt(s)"
+    if collided and status is not IKStatus.CONVERGED:
+        message += f", {collided} of them met the goals in contact"
     return finish(model, goals, best_q, solver="nlp", status=status, iterations=iterations,
                   restarts=max(attempts - 1, 0), started=started, constraints=cons,
-                  message=f"{problem.method.value}, {attempts} attempt(s)", start=q0,
-                  search=True)
+                  message=message, start=q0, search=True, avoid=avoid)
 
 
 def _attempt(problem: Problem, model: KinematicModel, goals: tuple[Goal, ...],

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from brute_depth import segment_box_depth
 
 from armctl.kinematics.capsules import (
     arm_capsules,
@@ -89,7 +90,14 @@ def test_distances_against_dense_sampling():
         inside = np.minimum(np.minimum(pts - lower, upper - pts).min(axis=1), 0)
         depth = np.where(outside > 0, outside, -np.minimum(pts - lower, upper - pts).min(axis=1))
         assert inside.max() <= 0
-        assert np.isclose(segment_box_distance(a, b, lower, upper), depth.min(), atol=1e-4)
+        got = segment_box_distance(a, b, lower, upper)
+        if depth.min() > 0:
+            assert np.isclose(got, depth.min(), atol=1e-4)
+        else:  # inside: minus the penetration depth (at least the deepest point's depth)
+            centre, half = (lower + upper) / 2, (upper - lower) / 2
+            assert got <= depth.min() + 1e-9
+            assert np.isclose(got, -segment_box_depth(np.stack([a, b]) - centre, half),
+                              atol=1e-6)
 
 
 def _mesh_arm(folder, mesh, scale="[1, 2, 1]"):
