@@ -190,10 +190,10 @@ def build_checker(args: argparse.Namespace, arm: Arm) -> CollisionModel | None:
 
 
 def contact_text(contact: Contact | None) -> str:
-    """``"free"``, or ``"collides: a-b 3.2 mm"`` (the pair and how deep inside its padding)."""
+    """``"free"``, or ``"collides: a-b 3.2 mm deep"`` (the pair, how deep inside its padding)."""
     if contact is None:
         return "free"
-    return f"collides: {contact.a}-{contact.b} {contact.depth * 1000:.1f} mm"
+    return f"collides: {contact.a}-{contact.b} {contact.depth * 1000:.1f} mm deep"
 
 
 def contact_data(contact: Contact | None) -> dict[str, Any] | None:

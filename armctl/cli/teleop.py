@@ -111,7 +111,8 @@ def _status(tele: Any, rate_hz: float) -> Any:
             return
         clamped = sum(tele.clamped.values())
         limited = sum(tele.rate_limited.values())
-        print(f"\r  {c.t:7.1f} s  clamped {clamped}  rate-limited {limited}   ", end="",
+        waits = f"  waiting: {c.blocked}" if c.blocked else ""
+        print(f"\r  {c.t:7.1f} s  clamped {clamped}  rate-limited {limited}{waits}   ", end="",
               file=sys.stderr, flush=True)
 
     return show
@@ -193,6 +194,7 @@ def _report(args: argparse.Namespace, tele: Any, stats: TeleopStats) -> None:
             "latency_median_ms": round(stats.latency_median * 1000, 3),
             "latency_p99_ms": round(stats.latency_p99 * 1000, 3),
             "clamped": stats.clamped, "rate_limited": stats.rate_limited,
+            "blocked": stats.blocked,
             "stopped_by": stats.stopped_by or "duration",
             "record": None if rec is None else {"file": str(rec.path),
                                                 "keyframes": stats.recorded,
@@ -201,7 +203,8 @@ def _report(args: argparse.Namespace, tele: Any, stats: TeleopStats) -> None:
              f"{stats.dropped} dropped); leader read to follower write "
              f"{stats.latency_median * 1000:.2f} ms median, {stats.latency_p99 * 1000:.2f} ms p99"]
     for what, counts in (("clamped to the effective limits", stats.clamped),
-                         ("rate-limited", stats.rate_limited)):
+                         ("rate-limited", stats.rate_limited),
+                         ("held back by a contact ahead", stats.blocked)):
         if counts:
             lines.append(f"{what} (cycles): " + ", ".join(f"{n} {c}" for n, c in counts.items()))
     if rec is not None:

@@ -92,6 +92,8 @@ class Contact:
         """One sentence: the pair, how deep, when and at which joints."""
         if self.distance < 0.0:
             how = f"overlap by {-self.distance * 1000:.1f} mm"
+        elif self.padding > 0.0 and self.distance > self.padding - 1e-4:
+            how = f"reach the {self.padding * 1000:.1f} mm padding between them"
         elif self.padding > 0.0:
             how = (f"come within {max(self.distance, 0.0) * 1000:.1f} mm, inside the "
                    f"{self.padding * 1000:.1f} mm padding")
@@ -104,6 +106,7 @@ class Contact:
         if joint_names and q.shape == (len(joint_names),):
             text += " with " + ", ".join(f"{n}={v:.4g}"
                                          for n, v in zip(joint_names, q, strict=True))
+            text += " (rad; m for prismatic joints)"
         if self.deepest is not None and self.deepest < self.distance - 1e-4:
             where = "" if self.deepest_time is None else f" at t={self.deepest_time:.3f} s"
             if self.deepest < 0.0:

@@ -10,12 +10,13 @@ key path, what was found and how to fix it.
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
 from armctl.config.format_yaml import check_version, parse_origin, parse_shape
-from armctl.config.geometry import Mesh
+from armctl.config.geometry import Geometry, Mesh
 from armctl.config.scene import (
     TABLE,
     AllowedPair,
@@ -151,6 +152,7 @@ def _obstacles(sec: Section) -> tuple[Obstacle, ...]:
         if isinstance(shape, Mesh) and not shape.path.is_file():
             raise item.error(f"mesh file {str(shape.path)!r} not found", "path",
                              fix="a relative path is relative to the folder of this file")
+        _check_units(item, shape)
         if name == TABLE:
             raise item.error(f"an obstacle may not be called {TABLE!r}: that is the table's "
                              "name", "name", fix="rename it")
@@ -162,6 +164,30 @@ def _obstacles(sec: Section) -> tuple[Obstacle, ...]:
         seen[name] = obstacle
         out.append(obstacle)
     return tuple(out)
+
+
+#: Largest obstacle size or distance from the base accepted [m]: more is a unit mistake.
+MAX_OBSTACLE_EXTENT = 20.0
+
+
+def _check_units(item: Section, shape: Geometry) -> None:
+    """Refuse values that can only be degrees or millimetres where radians and metres go."""
+    for i, v in enumerate(shape.origin.rpy):
+        if abs(v) > 2.0 * math.pi + 1e-9:
+            raise item.error(f"origin rpy[{i}] is {v:g} rad, more than a full turn", "origin",
+                             fix=f"angles are in radians: write {v:g} deg as \"{v:g} deg\" "
+                             f"or {math.radians(v):.4g}")
+    sizes = [abs(x) for x in shape.origin.xyz]
+    what = "origin xyz"
+    for key in ("size", "radius", "length"):
+        value = getattr(shape, key, None)
+        if value is not None:
+            sizes += [abs(float(x)) for x in (value if isinstance(value, tuple) else (value,))]
+            what += f", {key}"
+    if max(sizes, default=0.0) > MAX_OBSTACLE_EXTENT:
+        big = max(sizes)
+        raise item.error(f"{what}: {big:g} m is more than {MAX_OBSTACLE_EXTENT:g} m",
+                         fix=f"lengths are in metres: {big:g} mm is {big / 1000:g} m")
 
 
 def check_scene(scene: SceneSpec, links: Sequence[str]) -> None:

@@ -18,7 +18,7 @@ import logging
 import time
 import weakref
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Protocol
 
@@ -49,8 +49,8 @@ log = logging.getLogger(__name__)
 CHECK_DT = 0.002
 #: Slack on the acceleration limit in the bound of a joint's travel between samples [-].
 _ACCEL_SLACK = 1.1
-_HINT = ("give the planner more time (a larger time budget), move or shrink the obstacles, or "
-         "choose another goal")
+_HINT = ("give the planner more time (a larger time budget: DetourOptions(time_budget=...), "
+         "--plan-time on the command line), move or shrink the obstacles, or choose another goal")
 
 
 #: Denser samples ``(ts, qs, step)`` of the motion between two times [s] (both included).
@@ -78,6 +78,7 @@ class CollisionChecker(Protocol):
 class Planner(Enum):
     """Which RRT-Connect searches the path."""
 
+    AUTO = "auto"  # OMPL's when it is installed (the plan extra), else armctl's own
     OMPL = "ompl"  # OMPL's RRTConnect (needs the plan extra); not reproducible per plan
     BUILTIN = "builtin"  # armctl's seeded RRT-Connect: the same seed gives the same path
 
@@ -93,7 +94,7 @@ class DetourOptions:
         seed: Seed of the random sampling (of the search with :attr:`Planner.BUILTIN`, and of
             the shortcutting with either planner).
         simplify: Shorten the path found by shortcutting.
-        planner: The search.
+        planner: The search (:attr:`Planner.AUTO`: OMPL's when installed, else armctl's).
         interpolation: How the path's vertices are joined in time; the arm stops at a vertex
             where a blend would collide.
     """
@@ -101,7 +102,7 @@ class DetourOptions:
     time_budget: float = 1.0
     seed: int = 0
     simplify: bool = True
-    planner: Planner = Planner.OMPL
+    planner: Planner = Planner.AUTO
     interpolation: Interpolation = Interpolation.LINEAR
 
     def __post_init__(self) -> None:
@@ -206,6 +207,13 @@ def _segment_check(checker: CollisionChecker) -> Callable[[Array, Array], bool]:
     return probed
 
 
+def _has_ompl() -> bool:
+    """Whether OMPL's Python bindings can be imported (without importing them)."""
+    import importlib.util
+
+    return importlib.util.find_spec("ompl") is not None
+
+
 def _missing_ompl(exc: ImportError) -> Exception:
     from armctl.collision.errors import MissingExtraError
 
@@ -260,6 +268,8 @@ def plan_detour(checker: CollisionChecker, q0: npt.ArrayLike, q1: npt.ArrayLike,
     """
     t0 = time.perf_counter()
     opts = options or DetourOptions()
+    if opts.planner is Planner.AUTO:
+        opts = replace(opts, planner=Planner.OMPL if _has_ompl() else Planner.BUILTIN)
     check_speed(speed)
     start = np.asarray(q0, dtype=float).reshape(-1)
     goal = np.asarray(q1, dtype=float).reshape(-1)
@@ -309,7 +319,7 @@ def plan_detour(checker: CollisionChecker, q0: npt.ArrayLike, q1: npt.ArrayLike,
     log.debug("detour: %d vertices, %.3f s long, planned in %.4f s", len(path), traj.duration,
               elapsed)
     return MotionPlan(traj, limits, (), wps, elapsed, n,
-                      f"detour through {len(path) - 2} vias", extra)
+                      f"detour through {len(path) - 2} via{'' if len(path) == 3 else 's'}", extra)
 
 
 def _time_and_check(checker: CollisionChecker, path: Array, limits: MotionLimits,

@@ -380,12 +380,18 @@ class Robot:
         model = self.collisions
         if model is None:
             return
-        contact = trajectory_contact(plan.trajectory, self.limits, model.escaping(plan.start))
+        checker = model.escaping(plan.start)
+        contact = trajectory_contact(plan.trajectory, self.limits, checker)
         if contact is not None:
+            hint = ("Choose another goal or add a keyframe around it, move an obstacle, or edit "
+                    "the scene")
+            start = model.contact(plan.start) if checker is not model else None
+            if start is not None:
+                hint = (f"The arm starts in contact ({start.describe()}): a pair in contact may "
+                        "only move apart, and every other pair (another capsule of the same "
+                        "link too) keeps its padding. " + hint)
             raise CollisionError(plan.description or "the motion", contact,
-                                 self.arm.joint_names,
-                                 "Choose another goal or add a keyframe around it, move an "
-                                 "obstacle, or edit the scene")
+                                 self.arm.joint_names, hint)
 
     def _speed(self, speed: float | None) -> float:
         return self.speed if speed is None else float(speed)
@@ -461,10 +467,18 @@ class Robot:
         start = self.joints() if q0 is None else np.asarray(q0, dtype=float)
         res = self.arm.ik(goal, q0=start, solver=solver, avoid=self.collisions)
         if res.status is IKStatus.COLLIDES and res.contact is not None:
+            hint = ("The goal puts a link in contact: choose another goal or orientation, or "
+                    "edit the scene")
+            model = self.collisions
+            table = None if model is None else model.scene.table
+            pos = getattr(goal, "position", None)
+            if table is not None and isinstance(pos, np.ndarray) and pos.shape == (3,) \
+                    and float(pos[2]) < table.height:
+                hint = (f"The goal's z={float(pos[2]):.3f} m is "
+                        f"{(table.height - float(pos[2])) * 1000:.0f} mm below the table top "
+                        f"(z={table.height:.3f} m in the base frame). " + hint)
             raise CollisionError("every IK answer found for the goal", res.contact,
-                                 self.arm.joint_names,
-                                 "The goal puts a link in contact: choose another goal or "
-                                 "orientation, or edit the scene")
+                                 self.arm.joint_names, hint)
         if not res.success:
             narrowed = self.effective.narrowed()
             which = ", ".join(f"{n} ({'/'.join(s)})" for n, s in narrowed.items())

@@ -302,7 +302,7 @@ def test_cli_all_marks_each_solution(capsys, tmp_path, ur5e, crate):
         if free:
             assert row.rstrip().endswith("free")
         else:
-            assert re.search(r"collides: \S+-\S+ \d+\.\d mm$", row.rstrip()), row
+            assert re.search(r"collides: \S+-\S+ \d+\.\d mm deep$", row.rstrip()), row
     assert "crate" in text
 
     code, text, _ = _run(capsys, "ik", "ur5e", *_GOAL, "--solver", "analytic", "--all",

@@ -186,10 +186,19 @@ def test_missing_ompl_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
     with pytest.raises(MissingExtraError, match=r"pip install 'armctl\[plan\]'"):
         plan_detour(WALL, [-1.0, 0.0], [1.0, 0.0], joint_limits(),
                     options=DetourOptions(planner=Planner.OMPL))
-    # the seeded planner needs no OMPL
+    # the seeded planner needs no OMPL, and the default (AUTO, what --plan uses) falls back to it
     plan = plan_detour(WALL, [-1.0, 0.0], [1.0, 0.0], joint_limits(),
                        options=DetourOptions(planner=Planner.BUILTIN))
     assert dense_free(plan.trajectory, WALL)
+    monkeypatch.setattr("armctl.motion.detour._has_ompl", lambda: False)
+    plan = plan_detour(WALL, [-1.0, 0.0], [1.0, 0.0], joint_limits())
+    assert plan.extra["planner"] == "builtin" and dense_free(plan.trajectory, WALL)
+
+
+def test_auto_uses_ompl_when_it_is_installed() -> None:
+    assert DetourOptions().planner is Planner.AUTO
+    plan = plan_detour(WALL, [-1.0, 0.0], [1.0, 0.0], joint_limits())
+    assert plan.extra["planner"] == "ompl" and dense_free(plan.trajectory, WALL)
 
 
 def test_sample_steps_bound_the_travel_between_samples() -> None:

@@ -120,3 +120,14 @@ def test_an_arm_resting_in_contact_may_move_out_but_not_deeper() -> None:
             r.plan_joints(deeper)
         r.move_joints(up)
         assert model.free(r.joints())
+
+
+def test_a_refusal_from_a_start_in_contact_says_the_arm_starts_in_contact() -> None:
+    with Robot.open("so101", exit_policy=ExitPolicy.HOLD, hold=False) as r:
+        sim = r.bus.simulator  # type: ignore[attr-defined]
+        down = r.arm.ik(PositionGoal(np.array([0.25, 0.0, 0.005])), q0=np.zeros(r.arm.dof)).q
+        for name, v in zip(r.arm.joint_names, down, strict=True):
+            sim.set_joint(name, float(v))
+        deeper = r.arm.ik(PositionGoal(np.array([0.25, 0.0, -0.03])), q0=r.plan_start()).q
+        with pytest.raises(CollisionError, match="The arm starts in contact"):
+            r.plan_joints(deeper)
