@@ -145,6 +145,14 @@ class CollisionModel:
         prims: list[_Prim] = []
         names: list[str] = []
         if scene.table is not None:
+            roots = [j for j in range(n) if tree.parent[j] < 0]
+            lowest = min((float(tree.joint_origin(j)[2, 3]) for j in roots), default=math.inf)
+            if scene.table.height > lowest:
+                raise SceneError(
+                    f"the table top (z={scene.table.height:g} m in the arm's base frame) is above "
+                    f"the arm's first joint (z={lowest:g} m): the arm would stand inside the "
+                    "table. The height is in the base frame (about 0 for an arm standing on the "
+                    "table; a world height belongs to base_in_world)")
             prims.append(_Prim(K.K_TABLE, (scene.table.height,), (0.0, 0.0, 0.0), math.inf))
             names.append(TABLE)
         for ob in scene.obstacles:

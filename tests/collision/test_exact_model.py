@@ -83,3 +83,12 @@ def test_exact_segments_still_find_a_thin_wall() -> None:
     assert hit is not None and "sheet" in (hit.a, hit.b)
     assert model.first_contact_on_samples([0.0, 1.0], [left, right],
                                           [np.abs(right - left)]) is not None
+
+
+def test_a_table_above_the_first_joint_is_refused() -> None:
+    from armctl.collision import SceneError
+
+    arm = armctl.load_arm("so101")
+    with pytest.raises(SceneError, match=r"table top \(z=0.75 m.*above the arm's first joint"):
+        CollisionModel.of(arm, SceneSpec(TableSpec(0.75)))
+    assert CollisionModel.of(arm, SceneSpec(TableSpec(-0.01))).free(arm.named_pose("home"))
