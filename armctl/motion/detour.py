@@ -1,6 +1,6 @@
 """A way around: a collision-free joint path from start to goal, timed and checked before motion.
 
-:func:`plan_detour` searches a path with RRT-Connect (OMPL's, or the seeded one of
+:func:`plan_detour` searches a path with RRT-Connect (OMPL's, or armctl's own, reproducible one of
 :mod:`armctl.motion.rrt_connect`), every straight segment of it checked continuously by the
 collision model; shortens it by shortcutting; times it under the velocity, acceleration and
 jerk limits; and checks the timed trajectory again, continuously (the model bounds how far every

@@ -186,7 +186,7 @@ def test_missing_ompl_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
     with pytest.raises(MissingExtraError, match=r"pip install 'armctl\[plan\]'"):
         plan_detour(WALL, [-1.0, 0.0], [1.0, 0.0], joint_limits(),
                     options=DetourOptions(planner=Planner.OMPL))
-    # the seeded planner needs no OMPL, and the default (AUTO, what --plan uses) falls back to it
+    # the builtin planner needs no OMPL, and the default (AUTO, what --plan uses) falls back to it
     plan = plan_detour(WALL, [-1.0, 0.0], [1.0, 0.0], joint_limits(),
                        options=DetourOptions(planner=Planner.BUILTIN))
     assert dense_free(plan.trajectory, WALL)
