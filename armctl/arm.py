@@ -20,6 +20,17 @@ if TYPE_CHECKING:
 
 __all__ = ["Arm", "load_arm"]
 
+#: ``armctl.ik.solve``, imported on the first ``Arm.ik`` (an import statement in the method
+#: would cost more than a solve's own Python code)
+_IK_SOLVE: list[Any] = []
+
+
+def _ik_solve() -> Any:
+    from armctl.ik import solve
+
+    _IK_SOLVE.append(solve)
+    return solve
+
 
 class Arm(KinematicModel):
     """An arm model: the kinematic tree, its limits and named frames.
@@ -67,8 +78,7 @@ class Arm(KinematicModel):
             UnsupportedGoalError: For goals or constraints the solver cannot take (its
                 capabilities, :func:`armctl.ik.solver_info`); the message names those that can.
         """
-        from armctl.ik import solve
-
+        solve = _IK_SOLVE[0] if _IK_SOLVE else _ik_solve()
         return solve(self, goal, q0, solver, options=options, constraints=constraints,
                      avoid=avoid)
 

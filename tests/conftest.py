@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -14,6 +15,24 @@ from armctl.clock import SimulatedClock, set_default_clock
 @pytest.fixture
 def data_dir() -> Path:
     return DATA
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_cmdline_main(config: pytest.Config) -> None:
+    """A run of the whole suite (no paths given) uses one pytest-xdist worker per core.
+
+    Only when pytest-xdist is installed (the test extra), the machine has two cores or more and
+    neither ``-n`` (``-n 0``: this process only), ``--pdb`` nor ``--collect-only`` is given; a run
+    of chosen files or tests stays in this process. Runs before xdist's own hook.
+    """
+    if hasattr(config, "workerinput") or not config.pluginmanager.hasplugin("xdist"):
+        return
+    if config.args_source is not pytest.Config.ArgsSource.TESTPATHS or (os.cpu_count() or 1) < 2:
+        return
+    if (config.option.numprocesses is not None or config.getoption("usepdb", False)
+            or config.option.collectonly):
+        return
+    config.option.numprocesses = "auto"
 
 
 def pytest_configure(config: pytest.Config) -> None:

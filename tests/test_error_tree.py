@@ -98,6 +98,8 @@ def _result() -> Any:
 #: Constructor arguments of every exception class that defines ``__init__`` (keyed by it).
 SAMPLES: dict[str, tuple[Any, ...]] = {
     "armctl.errors.ArmctlError": ("something went wrong",),
+    "armctl.panel.errors.ControlDenied": ("tab 2 has control", "tab 1", "tab 2"),
+    "armctl.panel.errors.PanelBusy": ("cannot preview while a move runs", "moving"),
     "armctl.collision.errors.CollisionError": (
         "move to pose", Contact(ContactKind.SCENE, "gripper", "table", -0.01, 0.005,
                                 np.array([0.1, 0.2]), 0.5, 3, -0.02, 0.7),

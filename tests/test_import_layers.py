@@ -172,6 +172,7 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"motion"}),
     frozenset({"servo", "render"}),
     frozenset({"robot"}),
+    frozenset({"panel"}),
     frozenset({"cli"}),
     frozenset({"__main__"}),
 )

@@ -84,20 +84,21 @@ def rtb_solver(arm: Arm) -> Callable[[np.ndarray, np.ndarray, float], tuple[np.n
     import roboticstoolbox as rtb
 
     joints, f = chain_of(arm)
-    ets = rtb.ETS()
+    ets_list = []  # one ETS built at the end: every joint ET then gets its index
     for j in joints:
         axis = arm.tree.joint_axis(j)
-        ets *= rtb.ET.SE3(arm.tree.joint_origin(j))
+        ets_list.append(rtb.ET.SE3(arm.tree.joint_origin(j)))
         qlim = [arm.lower[j], arm.upper[j]]
         canon = {(1, 0, 0): rtb.ET.Rx, (0, 1, 0): rtb.ET.Ry, (0, 0, 1): rtb.ET.Rz}
         key = tuple(round(a) for a in axis)
         if key in canon and np.allclose(axis, key):
-            ets *= canon[key](qlim=qlim)
+            ets_list.append(canon[key](qlim=qlim))
         else:
             r = np.eye(4)
             r[:3, :3] = _align(axis)
-            ets *= rtb.ET.SE3(r) * rtb.ET.Rz(qlim=qlim) * rtb.ET.SE3(np.linalg.inv(r))
-    ets *= rtb.ET.SE3(arm.tree.frame_offset(f))
+            ets_list += [rtb.ET.SE3(r), rtb.ET.Rz(qlim=qlim), rtb.ET.SE3(np.linalg.inv(r))]
+    ets_list.append(rtb.ET.SE3(arm.tree.frame_offset(f)))
+    ets = rtb.ETS(ets_list)
 
     def solve(goal: np.ndarray, q0: np.ndarray, tol: float) -> tuple[np.ndarray, bool]:
         sol = ets.ik_LM(goal, q0=q0[joints], ilimit=30, slimit=100, tol=tol, joint_limits=True)

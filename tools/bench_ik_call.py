@@ -1,10 +1,17 @@
 """IK cost per call from random starts, and the fixed cost of a call; writes the ``ik-call``
 section of docs/benchmarks.md.
 
+Robots: by default the reference robots (:data:`REFERENCE`): the Franka Panda and the UR5 of
+the example-robot-data package, the KUKA KR6 R900 sixx of the rtb-data package (its xacro,
+expanded with xacrodoc) and the SO-ARM100 of example-robot-data (``so100.urdf``, 5 arm joints,
+tool: its ``gripper`` link); bench-only packages. Bundled arms by name (``--arms panda ur5e
+wx250s so101``) work too.
+
 Protocol: per arm, random reachable goals (FK of uniform random configurations inside the
 limits, fixed seed) and random starts (uniform inside the limits, another seed). Every call is
 timed from the caller's side, building the goal included: ``arm.ik(PoseGoal(T, tolerance=tol),
-q0)`` (SO-101, 5 joints: a ``DirectionGoal``, position + tool z axis). Success = armctl's FK of
+q0)`` (the bundled 5-joint SO-101: a ``DirectionGoal``, position + tool z axis; the SO-ARM100
+gets full poses, which FK of its own configurations makes reachable). Success = armctl's FK of
 the answer within 1e-6 m and 1e-6 rad and inside the limits; an answer reported as solved that
 fails this check is a false success. The peer, roboticstoolbox-python ``ETS.ik_LM`` (C++, tol
 1e-13, joint limits on; its chain built from armctl's model as in tools/bench_ik.py), solves the
@@ -16,7 +23,7 @@ configuration that generated the goal.
 and the armctl package in DIR (e.g. a git worktree of an earlier commit), and writes the
 ``ik-call-versions`` section instead.
 
-Usage: python tools/bench_ik_call.py [--goals 300] [--passes 5] [--arms panda ur5e wx250s so101]
+Usage: python tools/bench_ik_call.py [--goals 300] [--passes 5] [--arms ROBOT ...]
        python tools/bench_ik_call.py --against /path/to/other/checkout [--passes 6]
 """
 
@@ -44,16 +51,60 @@ ROOT = Path(__file__).resolve().parent.parent
 TOL = 1e-6
 
 
-def _setup(name: str, n: int, seed: int) -> tuple[Any, ...]:
+#: The reference robots: name -> (label, where the description comes from, the tool link).
+REFERENCE = {
+    "panda-erd": ("Franka Panda (example-robot-data)", "erd:panda_description/urdf/panda.urdf",
+                  "panda_hand_tcp"),
+    "ur5-erd": ("UR5 (example-robot-data)", "erd:ur_description/urdf/ur5_robot.urdf", None),
+    "kr6-rtb": ("KUKA KR6 R900 sixx (rtb-data)", "kr6", None),
+    "so100-erd": ("SO-ARM100 (example-robot-data)", "erd:so_arm_description/urdf/so100.urdf",
+                  "gripper"),
+}
+ERD = "cmeel.prefix/share/example-robot-data/robots"
+_TMP: list[Any] = []
+
+
+def load_robot(name: str) -> Arm:
+    """A bundled arm by name, or a reference robot (:data:`REFERENCE`) from its package."""
     from armctl.arm import load_arm
+
+    if name not in REFERENCE:
+        return load_arm(name)
+    _, where, tip = REFERENCE[name]
+    if where == "kr6":
+        import tempfile
+
+        from bench_analytic_reference import reference_urdfs
+
+        if not _TMP:
+            _TMP.append(tempfile.TemporaryDirectory())
+        found, missing = reference_urdfs(Path(_TMP[0].name))
+        path = found.get("KUKA KR6 R900 sixx (rtb-data)")
+        if path is None:
+            raise SystemExit(f"{name}: {'; '.join(missing)}")
+        return load_arm(path)
+    rel = where.split(":", 1)[1]
+    for d in sys.path:
+        cand = Path(d) / ERD / rel
+        if cand.is_file():
+            return load_arm(cand, tip=tip)
+    raise SystemExit(f"{name}: `pip install example-robot-data` (bench only)")
+
+
+def robot_label(name: str) -> str:
+    """How the tables name a robot."""
+    return REFERENCE[name][0] if name in REFERENCE else name
+
+
+def _setup(name: str, n: int, seed: int) -> tuple[Any, ...]:
     from armctl.ik import DirectionGoal, PoseGoal, Tolerance
 
-    arm = load_arm(name)
+    arm = load_robot(name)
     q_goal = arm.sample(np.random.default_rng(seed), n)
     poses = arm.fk_batch(q_goal)
     starts = arm.sample(np.random.default_rng(seed + 1), n)
     tol = Tolerance(TOL, TOL)
-    if len(arm.chain()) < 6:
+    if len(arm.chain()) < 6 and name not in REFERENCE:
         def make(p: np.ndarray) -> object:
             return DirectionGoal(p[:3, 3], p[:3, 2], tolerance=tol)
     else:
@@ -108,7 +159,7 @@ def against(args: argparse.Namespace) -> int:
                                   cwd=trees[k])
             runs[k].append(json.loads(done.stdout.strip().splitlines()[-1]))
     load.append(os.getloadavg()[0])
-    this, other = _version(trees["this"]), _version(trees["other"])
+    this, other = _version(trees["this"]), args.label or _version(trees["other"])
     head = ["arm", "start", f"{other} [us]", f"{this} [us]", "ratio (per-run range)",
             "success"]
     md = ["## IK per call: two versions side by side (tools/bench_ik_call.py --against)", "",
@@ -123,7 +174,8 @@ def against(args: argparse.Namespace) -> int:
             b = np.array([x[name][what] for x in runs["other"]])
             ratio = a / b
             ok_this, ok_other = runs["this"][0][name]["success"], runs["other"][0][name]["success"]
-            md.append(f"| {name} | {label} | {np.median(b):.1f} | {np.median(a):.1f} | "
+            md.append(f"| {robot_label(name)} | {label} | {np.median(b):.1f} | "
+                      f"{np.median(a):.1f} | "
                       f"{np.median(ratio):.2f} ({ratio.min():.2f}-{ratio.max():.2f}) | "
                       f"{100 * ok_other:.1f} % / {100 * ok_this:.1f} % |")
     md += ["", f"Load average of the machine: {load[0]:.1f} at the start, {load[1]:.1f} at the "
@@ -145,32 +197,27 @@ def _fixed_parts(arm: Arm, q: np.ndarray, pose: np.ndarray, make: Callable[..., 
     """Best-of-25 time [us] of the parts of a call that needs no iteration."""
     from armctl.ik import IKOptions, IKStatus, finish
     from armctl.ik import _engine as E
-    from armctl.ik._pack import goal_kernel, model_arrays, seed_state
-    from armctl.ik.nullspace import ns_arrays
+    from armctl.ik._pack import goal_kernel, model_arrays, seed_value
     from armctl.ik.numerical import method_params
+    from armctl.ik.result import converged
 
     goal = make(pose)
     goals = (goal,)
     ma = model_arrays(arm)
     prm = method_params(arm, E.DLS, IKOptions())
-    ns = ns_arrays(arm, None)
-    trace = np.empty((0, 2))
-
-    def core() -> None:
-        E.solve(q, ma.kernel, goal_kernel(arm, goals), (E.DLS, prm, 100, 51, 0.0), ns,
-                seed_state(0), np.empty(arm.dof), trace)
-
-    def kernel_only() -> None:
-        E.solve(q, ma.kernel, ga, (E.DLS, prm, 100, 51, 0.0), ns, state, out, trace)
-
-    ga, state, out = goal_kernel(arm, goals), seed_state(0), np.empty(arm.dof)
+    gk = goal_kernel(arm, goals)
+    out, errs = np.empty(arm.dof), np.empty((1, 2))
+    run = (E.DLS, prm, 100, 51, time.perf_counter() + 1e6)
     parts = {
         "whole call": lambda: arm.ik(make(pose), q),
-        "goal construction": lambda: make(pose),
+        "goal construction (checks)": lambda: make(pose),
         "solve with a built goal": lambda: arm.ik(goal, q),
-        "packing + compiled core": core,
-        "compiled core alone": kernel_only,
-        "finish (FK check, result)": lambda: finish(
+        "compiled core: solve + answer check": lambda: E.solve_checked(
+            q, ma.kernel, gk, run, seed_value(0), out, errs),
+        "result object": lambda: converged(arm.tool, goals, np.empty(arm.dof), ((0.0, 0.0),),
+                                           0.0, 0.0, solver="auto", iterations=0, restarts=0,
+                                           started=0.0),
+        "a failed answer's check (finish)": lambda: finish(
             arm, goals, q, solver="auto", status=IKStatus.CONVERGED, iterations=0, restarts=0,
             started=0.0),
     }
@@ -178,7 +225,7 @@ def _fixed_parts(arm: Arm, q: np.ndarray, pose: np.ndarray, make: Callable[..., 
     for label, fn in parts.items():
         for _ in range(200):
             fn()
-        times[label] = min(timeit.repeat(fn, number=500, repeat=25)) / 500 * 1e6
+        times[label] = min(timeit.repeat(fn, number=200, repeat=60)) / 200 * 1e6
     return times
 
 
@@ -190,7 +237,7 @@ def _measure_arm(name: str, args: argparse.Namespace) -> tuple[list[list[str]],
     from armctl.ik import PoseGoal, Tolerance, evaluate
 
     arm, q_goal, poses, starts, make = _setup(name, args.goals, args.seed)
-    five = len(arm.chain()) < 6
+    five = len(arm.chain()) < 6 and name not in REFERENCE  # a 5-DOF goal, which rtb cannot take
     rtb = None if five else rtb_solver(arm)
     check_tol = Tolerance(TOL, TOL)
 
@@ -247,7 +294,7 @@ def _measure_arm(name: str, args: argparse.Namespace) -> tuple[list[list[str]],
         who = ("armctl `arm.ik(...)`" if key.startswith("armctl") else
                "roboticstoolbox `ik_LM` (tol=1e-13)")
         start = "goal's own configuration (0 iterations)" if key.endswith("fixed") else "random"
-        rows.append([name + (" (5-DOF goal)" if five else ""), who, start, str(n),
+        rows.append([robot_label(name) + (" (5-DOF goal)" if five else ""), who, start, str(n),
                      f"{100 * s['ok'] / n:.1f} %", f"{np.median(s['t']) * 1e6:.1f}",
                      f"{np.percentile(s['t'], 95) * 1e6:.1f}", str(s["false"]), ratio])
         print(" | ".join(rows[-1]), flush=True)
@@ -259,9 +306,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--goals", type=int, default=300)
     ap.add_argument("--passes", type=int, default=5, help="passes over the goals (or runs "
                     "per checkout with --against)")
-    ap.add_argument("--arms", nargs="+", default=["panda", "ur5e", "wx250s", "so101"])
+    ap.add_argument("--arms", nargs="+", default=list(REFERENCE),
+                    help="reference robots (%(default)s) or bundled arms (panda, ur5e, ...)")
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--against", help="another armctl checkout to compare with (prints only)")
+    ap.add_argument("--label", help="how the table names the --against checkout (default: "
+                    "its git commit, or its directory's name)")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--no-write", action="store_true", help="print only")
     args = ap.parse_args(argv)
@@ -277,7 +327,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.arms:
         arm_rows, parts = _measure_arm(name, args)
         rows += arm_rows
-        part_rows.append([name] + [f"{v:.1f}" for v in parts.values()])
+        part_rows.append([robot_label(name)] + [f"{v:.1f}" for v in parts.values()])
         part_labels = list(parts)
         print(name, {k: round(v, 1) for k, v in parts.items()}, flush=True)
     load.append(os.getloadavg()[0])
@@ -288,8 +338,12 @@ def main(argv: list[str] | None = None) -> int:
           f"{args.seed}) from random starts inside the limits (seed {args.seed + 1}), "
           f"{args.passes} passes over {args.goals} goals per arm. Each call is timed from the "
           "caller's side with the goal built inside the timing: `arm.ik(PoseGoal(T, "
-          "tolerance=Tolerance(1e-6, 1e-6)), q0)` (SO-101: a `DirectionGoal`, position + tool z "
-          "axis; roboticstoolbox takes full poses only). Success = armctl's FK of the answer "
+          "tolerance=Tolerance(1e-6, 1e-6)), q0)`. Robots: the Franka Panda and the UR5 of the "
+          "example-robot-data package, the KUKA KR6 R900 sixx of rtb-data (its xacro expanded "
+          "with xacrodoc), the SO-ARM100 of example-robot-data (`so100.urdf`, 5 arm joints up to "
+          "its `gripper` link: full poses, reachable as FK of its own configurations); a "
+          "bundled 5-joint arm gets a `DirectionGoal` (position + tool z axis), which "
+          "roboticstoolbox cannot take. Success = armctl's FK of the answer "
           "within 1e-6 m and 1e-6 rad and inside the limits; a false success is an answer "
           "reported as solved that fails this check. roboticstoolbox `ETS.ik_LM` (C++, "
           "tol=1e-13, joint limits on, chain built from armctl's model) solves the same goals "
@@ -300,11 +354,14 @@ def main(argv: list[str] | None = None) -> int:
           "success; a fixed cost of at most 10 us.", "",
           "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     md += ["| " + " | ".join(r) + " |" for r in rows]
-    md += ["", "Parts of a call that needs no iteration (best of 25 x 500 calls) [us]: "
-           "'goal construction' checks the input (shape, finite numbers, the rotation residual "
-           "max |R R^T - I| and det R); 'finish' is the check every answer gets (FK of the "
-           "answer, goal errors, joint limits) and the result object; 'compiled core alone' is "
-           "the numba solver's call with packed arrays.", "",
+    md += ["", "Parts of a call that needs no iteration (best of 60 x 200 calls) [us]: "
+           "'goal construction' checks the input (shape, finite numbers, the last row, the "
+           "rotation residual max |R R^T - I| and det R; in one compiled call once the solvers "
+           "are loaded, the Python check for anything it does not accept as it is); the "
+           "'compiled core' checks the start, solves and checks the answer (FK of the wrapped "
+           "answer, each goal's error against its tolerance, the joint limits) in one call; "
+           "the 'result object' is built from that check; an answer the core does not accept "
+           "gets the full Python check, 'finish', as every answer did before.", "",
            "| arm | " + " | ".join(part_labels) + " |", "|" + "---|" * (len(part_labels) + 1)]
     md += ["| " + " | ".join(r) + " |" for r in part_rows]
     md += ["", f"Load average of the machine: {load[0]:.1f} at the start, {load[1]:.1f} at the "

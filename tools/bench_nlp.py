@@ -11,6 +11,7 @@ start, same cost) on the same goals. Writes the ``nlp`` section of docs/benchmar
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -32,7 +33,7 @@ from armctl.ik.nlp import (
     OnPlane,
     clear_cache,
 )
-from armctl.ik.nlp.problem import get_problem, reach
+from armctl.ik.nlp.problem import get_problem
 from armctl.kinematics.capsules import arm_capsules, segment_point_distance, world_segments
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -52,7 +53,7 @@ def _reached(arm: Arm, q: np.ndarray, target: np.ndarray) -> bool:
 def _slsqp(arm: Arm, target: np.ndarray, q0: np.ndarray) -> np.ndarray:
     from scipy.optimize import minimize
 
-    length = reach(arm)
+    length = arm.tree.max_reach
     rho = 0.3
 
     def cost(q: np.ndarray) -> float:
@@ -113,19 +114,112 @@ def _constraints(arm: Arm, rng: np.random.Generator, q: np.ndarray) -> list[Cons
     return out
 
 
+def _met(arm: Arm, goal: PositionGoal, cons: list[Constraint], q: np.ndarray) -> bool:
+    """The one success check of both solvers: the goal by FK, every hard constraint, limits."""
+    return bool(goal.reached(arm.fk(q)) and arm.within_limits(q)
+                and all(c.violation(arm, q) <= c.tolerance for c in cons if c.hard))
+
+
+class _Naive:
+    """Plain CasADi + IPOPT on a constrained problem, with random restarts.
+
+    ``min |p - p_t|^2`` subject to the joint limits and the constraints' own rows (the same
+    CasADi expressions as armctl's problem), IPOPT with default options (exact Hessian, MUMPS);
+    one solver per constraint structure (built on first use, the build timed with that solve),
+    the numbers as parameters. From the given start, then random starts until the answer
+    passes :func:`_met` or the budget is spent.
+    """
+
+    def __init__(self, arm: Arm, budget: float):
+        from armctl.kinematics.symbolic import SymbolicFK
+
+        self.arm = arm
+        self.budget = budget
+        self.sym = SymbolicFK(arm)
+        self.built: dict[tuple[object, ...], tuple[object, np.ndarray, np.ndarray]] = {}
+
+    def _solver(self, cons: list[Constraint]) -> tuple[object, np.ndarray, np.ndarray]:
+        key = tuple(c.structure() for c in cons)
+        if key not in self.built:
+            import casadi as ca
+
+            sym = self.sym
+            rot, pos = sym.frame(None)
+            p = ca.SX.sym("p", 3 + sum(len(c.params()) for c in cons))
+            rows, lbg = [], []
+            at = 3
+            for c in cons:
+                size = len(c.params())
+                segs = []
+                if c.on_links:
+                    for cap in arm_capsules(self.arm, getattr(c, "link_radius", None)):
+                        a, b = np.array(cap.a), np.array(cap.b)
+                        segs.append((sym.point(cap.body, a), sym.point(cap.body, b), cap.radius,
+                                     float(np.linalg.norm(b - a))))
+                r = c.rows(ca, rot, pos, segs, p[at:at + size])
+                at += size
+                rows.append(r)
+                lbg += [0.0 if c.equality else -np.inf] * int(r.numel())
+            nlp = {"x": sym.q, "p": p, "f": ca.sumsqr(pos - p[0:3]), "g": ca.vertcat(*rows)}
+            solver = ca.nlpsol("naive", "ipopt", nlp, {"print_time": False,
+                                                        "ipopt.print_level": 0,
+                                                        "ipopt.sb": "yes"})
+            self.built[key] = (solver, np.array(lbg), np.zeros(len(lbg)))
+        return self.built[key]
+
+    def __call__(self, goal: PositionGoal, cons: list[Constraint], q0: np.ndarray,
+                 rng: np.random.Generator) -> tuple[np.ndarray, bool, int]:
+        """(answer, success, attempts)."""
+        t0 = time.perf_counter()
+        solver, lbg, ubg = self._solver(cons)
+        par = np.concatenate([goal.position, *(c.params() for c in cons)])
+        arm, start, attempts = self.arm, q0, 0
+        while True:
+            attempts += 1
+            sol = solver(x0=start, p=par, lbx=arm.lower, ubx=arm.upper,  # type: ignore[operator]
+                         lbg=lbg, ubg=ubg)
+            q = np.clip(np.array(sol["x"], dtype=float).reshape(-1), arm.lower, arm.upper)
+            if _met(arm, goal, cons, q):
+                return q, True, attempts
+            if time.perf_counter() - t0 >= self.budget:
+                return q, False, attempts
+            start = arm.sample(rng)
+
+
 def bench_constrained(name: str, n: int) -> dict[str, object]:
+    """armctl's NLP and the naive peer on the same constrained problems, interleaved."""
     arm, source = _arm(name)
     rng = np.random.default_rng(7)
-    ok, times = 0, []
-    for _ in range(n):
+    budget = NLPOptions().time_limit
+    naive = _Naive(arm, budget)
+    peer_rng = np.random.default_rng(8)
+    ok, times, ok_n, times_n, att_n = 0, [], 0, [], []
+    cpu: list[float] = []
+    cpu_n: list[float] = []
+    for k in range(n):
         q = arm.sample(rng)
         cons = _constraints(arm, rng, q)
-        res = arm.ik(PositionGoal(arm.fk(q)[:3, 3]), arm.sample(rng), solver="nlp",
-                     constraints=cons)
-        ok += res.success
-        times.append(res.time)
+        goal = PositionGoal(arm.fk(q)[:3, 3])
+        q0 = arm.sample(rng)
+        for who in ((0, 1) if k % 2 == 0 else (1, 0)):  # alternate which runs first
+            t0, c0 = time.perf_counter(), time.process_time()
+            if who == 0:
+                res = arm.ik(goal, q0, solver="nlp", constraints=cons)
+                times.append(time.perf_counter() - t0)
+                cpu.append(time.process_time() - c0)
+                ok += _met(arm, goal, cons, res.q)
+            else:
+                qn, _, attempts = naive(goal, cons, q0, peer_rng)
+                times_n.append(time.perf_counter() - t0)
+                cpu_n.append(time.process_time() - c0)
+                ok_n += _met(arm, goal, cons, qn)
+                att_n.append(attempts)
     return {"arm": name, "source": source, "n": n, "ok": ok,
-            "median": float(np.median(times)), "p90": float(np.percentile(times, 90))}
+            "median": float(np.median(times)), "p90": float(np.percentile(times, 90)),
+            "naive_ok": ok_n, "naive_median": float(np.median(times_n)),
+            "naive_p90": float(np.percentile(times_n, 90)),
+            "naive_attempts": float(np.mean(att_n)), "cpu": float(np.median(cpu)),
+            "naive_cpu": float(np.median(cpu_n)), "load": os.getloadavg()[0]}
 
 
 def bench_arm(name: str, n: int, n_stream: int) -> dict[str, object]:
@@ -136,7 +230,8 @@ def bench_arm(name: str, n: int, n_stream: int) -> dict[str, object]:
     # build time: a fresh cache, first problem (includes CasADi's code generation for SX)
     clear_cache()
     t0 = time.perf_counter()
-    get_problem(arm, (PoseGoal(targets[0]),), (), opts)
+    problem = get_problem(arm, (PoseGoal(targets[0]),), (), opts)
+    _ = problem.solvers[True], problem.solvers[False]  # both instances (built on first use)
     build = time.perf_counter() - t0
     arm.ik(targets[0], solver="nlp", options=opts)  # warm the seed solver's JIT
     ok, times, restarts = 0, [], []
@@ -192,8 +287,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--constrained", type=int, default=200,
                     help="random constrained problems per arm")
     ap.add_argument("--arms", nargs="+", default=["ur5e", "panda"])
+    ap.add_argument("--constrained-only", action="store_true",
+                    help="only the constrained problems (print only)")
     ap.add_argument("--no-write", action="store_true", help="print only")
     args = ap.parse_args(argv)
+    if args.constrained_only:
+        for a in args.arms:
+            print(bench_constrained(a, args.constrained))
+        return 0
     rows = [bench_arm(a, args.n, args.stream) for a in args.arms]
     crows = [bench_constrained(a, args.constrained) for a in args.arms]
     lines = [
@@ -233,14 +334,31 @@ def main(argv: list[str] | None = None) -> int:
         "half-space, line, box, sphere, tool-axis cone) and a keep-out sphere near the arm, all "
         "met by one random configuration (so every problem is feasible); hard constraints, so "
         "`Method.AUTO` runs IPOPT; random start. The structures (which constraint types) vary, "
-        "so many solves include building their problem.",
+        "so some solves include building their problem. Naive: the same problems in plain "
+        "CasADi + IPOPT, `min |p - p_t|^2` subject to the limits and the same constraint rows, "
+        "default IPOPT options (exact Hessian), one solver per structure (its build timed with "
+        "the solve that needs it), from the same start, then random restarts until success or "
+        "the same 0.2 s budget. The two run interleaved (alternating which goes first); "
+        "success for both = the goal by FK within its tolerance, every constraint's violation "
+        "by FK within its tolerance, inside the limits. Time: wall time of the whole call "
+        "(CPU: the process's CPU time, which a loaded machine inflates less); both solvers' "
+        "budgets are wall time, so a heavily loaded machine costs both some success. Load: the "
+        "1-minute load average at the end of the arm's run "
+        f"({os.cpu_count()} CPUs).",
         "",
-        "| arm | problems | success | median [ms] | p90 [ms] |",
-        "|---|---|---|---|---|",
+        "| arm | problems | armctl success | armctl median [ms] | armctl p90 [ms] | "
+        "armctl CPU median [ms] | naive success | naive median [ms] | naive p90 [ms] | "
+        "naive CPU median [ms] | naive mean attempts | load |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in crows:
         lines.append(f"| {r['arm']} | {r['n']} | {100 * r['ok'] / r['n']:.1f} % | "  # type: ignore[operator]
-                     f"{1e3 * r['median']:.1f} | {1e3 * r['p90']:.1f} |")  # type: ignore[operator]
+                     f"{1e3 * r['median']:.1f} | {1e3 * r['p90']:.1f} | "  # type: ignore[operator]
+                     f"{1e3 * r['cpu']:.1f} | "  # type: ignore[operator]
+                     f"{100 * r['naive_ok'] / r['n']:.1f} % | "  # type: ignore[operator]
+                     f"{1e3 * r['naive_median']:.1f} | {1e3 * r['naive_p90']:.1f} | "  # type: ignore[operator]
+                     f"{1e3 * r['naive_cpu']:.1f} | "  # type: ignore[operator]
+                     f"{r['naive_attempts']:.2f} | {r['load']:.1f} |")
     md = "\n".join(lines)
     print(md)
     if not args.no_write:

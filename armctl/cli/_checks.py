@@ -17,8 +17,9 @@ if TYPE_CHECKING:
     from armctl.ik import Goal
     from armctl.motion import KeyframeProgram, PlaybackOptions
 
-__all__ = ["check_goal_reach", "check_keyframe_path", "check_named_pose", "check_park_pose",
-           "check_play", "check_solver", "check_speed_arg", "check_teach_output"]
+__all__ = ["check_deg_applies", "check_goal_reach", "check_keyframe_path", "check_named_pose",
+           "check_park_pose", "check_play", "check_solver", "check_speed_arg",
+           "check_teach_output"]
 
 
 def check_speed_arg(args: argparse.Namespace, arm: Arm) -> None:
@@ -35,6 +36,21 @@ def check_speed_arg(args: argparse.Namespace, arm: Arm) -> None:
         check_speed(args.speed)
     elif arm.spec.motion is not None:
         check_speed(min(arm.spec.motion.speed, 1.0), what="the arm config's motion.speed")
+
+
+def check_deg_applies(args: argparse.Namespace) -> None:
+    """Refuse ``--deg`` on a ``move-to-pose`` that has no angle to read in degrees.
+
+    ``--deg`` applies to ``--rpy`` and ``--tcp-angular-speed``; positions and offsets are in
+    metres whatever it says, so on a move without either it would be silently ignored.
+
+    Raises:
+        InputError: Saying what ``--deg`` applies to and that ``--xyz`` is in metres.
+    """
+    if not args.deg or args.rpy is not None or args.tcp_angular_speed is not None:
+        return
+    raise InputError("--deg: this move has no angle (--deg applies to --rpy and "
+                     "--tcp-angular-speed; --xyz is in metres with or without it): drop --deg")
 
 
 def check_solver(name: str) -> None:

@@ -69,8 +69,11 @@ def run_motion(args: argparse.Namespace, fn: Any, arm: Arm) -> Any:
     """Open the robot, run ``fn(robot, progress)`` and close.
 
     The exit policy applies only when the command ends normally after a real run: a dry run
-    writes nothing at all; a stop, an error or a signal holds the arm where it is.
+    writes nothing at all; a stop, an error or a signal holds the arm where it is. With a
+    terminal on stdin, keys pause, resume and change the speed of the motions meanwhile
+    (:mod:`armctl.cli._motion_keys`).
     """
+    from armctl.cli._motion_keys import MotionKeys
     from armctl.config.motion import ExitPolicy
     from armctl.robot import MotionStopped
 
@@ -84,7 +87,8 @@ def run_motion(args: argparse.Namespace, fn: Any, arm: Arm) -> Any:
     progress = Progress(not args.json and not dry)
     recorder = _CycleRecorder(robot, log_path) if log_path is not None and not dry else None
     try:
-        result = fn(robot, progress)
+        with MotionKeys(robot.control, enabled=not dry, announce=not args.json):
+            result = fn(robot, progress)
         progress.done()
         if recorder is not None:
             recorder.write(quiet=args.json)

@@ -42,8 +42,10 @@ def check_relative_args(args: argparse.Namespace, arm: Arm) -> OffsetFrame:
 
     Raises:
         InputError: ``--quat`` or another goal type's flags (a relative move takes ``--xyz``
-            and ``--rpy`` only), neither ``--xyz`` nor ``--rpy``, or ``--frame`` naming the
-            offset's axes instead of a frame of the arm.
+            and ``--rpy`` only), neither ``--xyz`` nor ``--rpy``, ``--frame`` naming the
+            offset's axes instead of a frame of the arm, ``--rpy`` values that can only be
+            degrees without ``--deg``, or an offset longer than twice the arm's reach
+            (millimetres meant).
     """
     from armctl.ik import goal_classes
 
@@ -65,19 +67,110 @@ def check_relative_args(args: argparse.Namespace, arm: Arm) -> OffsetFrame:
                          f"--relative {args.frame}")
     if args.frame is not None:
         arm.frame_index(args.frame)  # an unknown frame: the error lists the arm's frames
-    return OffsetFrame(args.relative)
+    from armctl.cli._common import check_rpy
+
+    check_rpy(args.rpy, args.deg)
+    axes = OffsetFrame(args.relative)
+    _check_offset_length(args, arm)
+    return axes
 
 
-def relative_goal(arm: Arm, present: Array, args: argparse.Namespace, axes: OffsetFrame
-                  ) -> Goal:
-    """The absolute goal of a relative move from the frame's present pose ``(4, 4)``.
+def _check_offset_length(args: argparse.Namespace, arm: Arm) -> None:
+    """Refuse an ``--xyz`` offset longer than any move of the frame (twice its reach).
+
+    Raises:
+        InputError: Saying the arm's reach, with the offset in metres when the values, read as
+            millimetres, fit.
+    """
+    import numpy as np
+
+    if args.xyz is None:
+        return
+    d = np.asarray(args.xyz, dtype=float)
+    length = float(np.linalg.norm(d))
+    most = 2.0 * arm.reach(args.frame, from_first_joint=True)
+    if length <= most:
+        return
+    given = " ".join(f"{v:g}" for v in d)
+    fix = (f"the offset is in metres: did you mean --xyz {' '.join(f'{v / 1000:g}' for v in d)} "
+           f"({given} mm)?" if length / 1000 <= most else "give the offset in metres")
+    raise InputError(f"--relative --xyz {given}: an offset of {length:g} m is longer than any "
+                     f"move of arm {arm.name!r} ({most:.2f} m, twice its reach of "
+                     f"{most / 2:.2f} m); {fix}")
+
+
+def _check_turn(arm: Arm, q: Array, present: Array, rot: Array, args: argparse.Namespace,
+                axes: OffsetFrame) -> None:
+    """Refuse a rotation offset that the frame's joints cannot make in place at ``q``.
+
+    With fewer than 6 joints a frame cannot turn about every axis while its origin stays put:
+    at a given pose the axes it can turn about form a plane (5 joints), a line (4) or nothing
+    (:func:`armctl.robot.jog.turnable_axes`, from the Jacobian). A rotation about an axis
+    outside them is refused here, before anything is solved or planned, naming the axes of the
+    offset's frame it can turn about at the present pose.
+
+    Args:
+        arm: The arm.
+        q: The present joint values [rad]/[m].
+        present: The frame's present pose ``(4, 4)``.
+        rot: The rotation offset ``(3, 3)`` (in the offset frame's axes).
+        args: The command's arguments (``--frame``).
+        axes: The axes the offset is given in.
+
+    Raises:
+        InputError: Saying how many joints move the frame, about which axes it can turn here
+            and what to do instead.
+    """
+    import numpy as np
+
+    from armctl.robot.jog import TURN_RESIDUAL, turnable_axes
+
+    chain = arm.chain(args.frame)
+    if len(chain) >= 6:
+        return
+    about = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]])
+    angle = math.atan2(float(np.linalg.norm(about)) / 2.0, (float(np.trace(rot)) - 1.0) / 2.0)
+    if angle <= 1e-9:
+        return
+    if float(np.linalg.norm(about)) < 1e-9:  # a half turn: the axis from the symmetric part
+        w, v = np.linalg.eigh(rot + np.eye(3))
+        about = v[:, int(np.argmax(w))]
+    r0 = present[:3, :3]
+    frame_axes = r0.T if axes is OffsetFrame.TOOL else np.eye(3)  # rows, base coordinates
+    unit = about / float(np.linalg.norm(about))
+    axis = r0 @ unit if axes is OffsetFrame.TOOL else unit
+    off = turnable_axes(arm, q, np.vstack([axis, frame_axes]), args.frame)
+    if off[0] <= TURN_RESIDUAL:
+        return
+    tool = args.frame in (None, arm.tool)
+    who, point = ("its tool", "the tool point") if tool else (
+        f"frame {args.frame!r}", "the frame's origin")
+    can = [f"{axes.value} {'xyz'[i]}" for i in range(3) if off[1 + i] <= TURN_RESIDUAL]
+    here = ("at the present pose it can turn about " + " and ".join(can) +
+            " (and the axes between them)" if len(can) > 1 else
+            f"at the present pose it can turn about {can[0]}" if can else
+            f"at the present pose it can turn about no axis of the {axes.value} frame")
+    shown = np.round(unit, 3).tolist()
+    raise InputError(
+        f"--relative {axes.value} --rpy: arm {arm.name!r} moves {who} with {len(chain)} joints, "
+        f"too few to turn it about any axis while holding {point} in place; the rotation asked "
+        f"for is about {shown} in the {axes.value} frame, and {here}. Turn about one of those, "
+        "move single joints ('armctl jog', 'armctl move-joints'), give an absolute goal with "
+        "--xyz and --direction AXIS DX DY DZ, or add --force-pose to try anyway",
+        {"joints": len(chain), "axis": shown, "turnable": can})
+
+
+def relative_goal(arm: Arm, q: Array, args: argparse.Namespace, axes: OffsetFrame) -> Goal:
+    """The absolute goal of a relative move from the frame's pose at the present joints ``q``.
 
     A pure translation keeps the present orientation when six or more joints move the frame
     (a pose goal), else it is a position goal (a 5-DOF arm cannot keep every orientation while
     it translates). With ``--rpy`` the goal is a pose.
 
     Raises:
-        InputError: ``--rpy`` values that can only be degrees without ``--deg``.
+        InputError: ``--rpy`` values that can only be degrees without ``--deg``; (without
+            ``--force-pose``) a rotation that fewer than 6 joints cannot make in place at
+            ``q``.
     """
     import numpy as np
 
@@ -85,13 +178,15 @@ def relative_goal(arm: Arm, present: Array, args: argparse.Namespace, axes: Offs
     from armctl.ik import PoseGoal, PositionGoal, Tolerance
     from armctl.spatial import rpy_to_matrix
 
-    check_rpy(args.rpy, args.deg)
+    check_rpy(args.rpy, args.deg)  # checked before the bus opens too (check_relative_args)
     d = np.zeros(3) if args.xyz is None else np.asarray(args.xyz, dtype=float)
     rot = np.eye(3)
     if args.rpy is not None:
         rot = rpy_to_matrix(np.radians(args.rpy) if args.deg else np.asarray(args.rpy, float))
-    pose = np.array(present, dtype=float)
-    r0, p0 = pose[:3, :3], pose[:3, 3]
+    pose = arm.fk(q, args.frame)
+    if args.rpy is not None and not getattr(args, "force_pose", False):
+        _check_turn(arm, q, pose, rot, args, axes)
+    r0, p0 = pose[:3, :3].copy(), pose[:3, 3].copy()
     if axes is OffsetFrame.TOOL:
         pose[:3, 3] = p0 + r0 @ d
         pose[:3, :3] = r0 @ rot

@@ -3,12 +3,23 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import time
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from armctl.cli._common import add_config, add_json, emit, fmt, positive, table
+from armctl.cli._common import (
+    JSON_SCHEMA,
+    add_config,
+    add_json,
+    emit,
+    fmt,
+    json_safe,
+    positive,
+    table,
+)
 from armctl.cli._scene import add_scene_option
 from armctl.errors import BusError, InputError, UnknownNameError
 
@@ -42,10 +53,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_scan)
 
     p = sub.add_parser("status", help="live table of the servos: angle, ticks, temperature, "
-                                      "voltage, load, errors")
+                                      "voltage, load, errors",
+                       description="Read the servos and show them live. When another armctl "
+                       "command owns the port (a move, playback, teaching, teleoperation), "
+                       "show that command's live state instead (it goes on undisturbed).")
     add_config(p)
-    _add_bus_args(p)
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--port", help="read the servos on this port instead of the config's (a "
+                                      "device, or the pty of 'armctl sim'); when another armctl "
+                                      "command owns it, watch that command")
+    where.add_argument("--sim", action="store_true",
+                       help="read the built-in simulated bus (also for a config without a "
+                            "'bus:' section)")
+    p.add_argument("--no-calibration", action="store_true", help="ignore the calibration file")
     p.add_argument("--once", action="store_true", help="print one reading and exit")
+    p.add_argument("--follow", "--watch", action="store_true",
+                   help="with --json: print one JSON line per refresh until Ctrl-C (or until "
+                        "the watched command releases the port)")
     p.add_argument("--interval", type=positive, default=0.2, help="refresh period [s]")
     p.add_argument("--deg", action="store_true", help="show rotary joints in degrees")
     add_scene_option(p)  # --scene FILE: the clearance is measured in it
@@ -109,8 +133,15 @@ def _spec(args: argparse.Namespace) -> ArmSpec:
     from armctl.config import load_spec
 
     spec = load_spec(args.config)
+    if getattr(args, "sim", False):
+        from armctl.config.bus import SIM_PORT
+        from armctl.robot.bus_choice import simulated_bus_spec
+
+        bus = simulated_bus_spec(spec) if spec.bus is None else replace(spec.bus, port=SIM_PORT)
+        return replace(spec, bus=bus)
     if spec.bus is None:
-        raise InputError(f"arm {spec.name!r} has no 'bus:' section; add one (docs/bus.md)")
+        raise InputError(f"arm {spec.name!r} has no 'bus:' section; add one (docs/bus.md), "
+                         "or use --sim for the built-in simulated bus")
     if getattr(args, "port", None):
         spec = replace(spec, bus=replace(spec.bus, port=args.port))
     return spec
@@ -325,10 +356,11 @@ def _clearance(model: KinematicModel, st: JointState, scene: SceneSpec | None
 def cmd_status(args: argparse.Namespace) -> int:
     """Show servo status, once or live."""
     from armctl.cli._scene import scene_arg
+    from armctl.cli._watch import check_same_arm, port_owner, watch_owner
     from armctl.kinematics.model import KinematicModel
     from armctl.servo.effective_limits import limits_of_bus
+    from armctl.servo.errors import PortError
 
-    ab = _arm_bus(args)
     unit = "deg" if args.deg else "rad|m"
     headers = ["joint", "id", f"angle [{unit}]", "ticks", "temp [C]", "volt [V]",
                "load [% stall]", "current [A]", "errors"]
@@ -337,6 +369,31 @@ def cmd_status(args: argparse.Namespace) -> int:
     spec = _spec(args)
     model = KinematicModel(spec)
     scene = scene_arg(args, model)  # --scene FILE: the clearance is measured in it
+
+    def pose_lines(names: Any, values: Any) -> tuple[Any, str, Any, str]:
+        reading: Any = _Reading(tuple(names), tuple(values))
+        tool = _tool_pose(model, reading)
+        clearance, clearance_line = _clearance(model, reading, scene)
+        return tool, _tool_text(tool), clearance, clearance_line
+
+    # Another armctl command owns the port: show its live state (the port is left alone).
+    assert spec.bus is not None  # _spec checked it  # mypy.
+    watcher = port_owner(spec.bus, None)
+    ab = _arm_bus(args)
+    if watcher is None:
+        try:
+            ab.open()
+        except PortError as exc:
+            watcher = port_owner(spec.bus, exc)
+            if watcher is None:
+                raise
+    if watcher is not None:
+        try:
+            check_same_arm(watcher.hello, spec.name, model.joint_names)
+        except BaseException:
+            watcher.close()
+            raise
+        return watch_owner(args, watcher, pose_lines)
     with ab:
         eff = limits_of_bus(spec, ab)
         limits = (f"limits [{unit}] (effective: inside all three, {eff.margin_ticks} servo "
@@ -349,18 +406,33 @@ def cmd_status(args: argparse.Namespace) -> int:
             clearance, clearance_line = _clearance(model, st, scene)
             text = (table(headers, rows, [1, 2, 3, 4, 5, 6, 7]) + "\n" + _tool_text(tool)
                     + "\n" + clearance_line + "\n\n" + limits)
-            if args.once or args.json:
-                emit(args, {"arm": ab.arm_name, "port": ab.spec.port, "joints": data,
-                            "tool": tool, "clearance": clearance,
-                            "calibration": ab.calibration.hash if ab.calibration else None,
-                            "limits": eff.as_dict()},
-                     text)
+            fields = {"arm": ab.arm_name, "port": ab.spec.port, "attached": False,
+                      "joints": data, "tool": tool,
+                      "clearance": clearance,
+                      "calibration": ab.calibration.hash if ab.calibration else None,
+                      "limits": eff.as_dict()}
+            if args.once or (args.json and not args.follow):
+                emit(args, fields, text)
                 return 0
+            if args.json:  # --follow: one JSON line per reading
+                print(json.dumps(json_safe({"schema": JSON_SCHEMA, "command": args.command,
+                                            "ok": True, **fields})),
+                      flush=True)
+                time.sleep(max(0.02, args.interval))
+                continue
             sys.stdout.write("\x1b[H\x1b[2J" + f"{ab.arm_name} on {ab.spec.port} "
                              "(Ctrl-C to stop)\n\n" + text + "\n")
             sys.stdout.flush()
             # Ctrl-C leaves the live table: exit 130, "interrupted by SIGINT" (cli main)
             time.sleep(max(0.02, args.interval))
+
+
+@dataclass(frozen=True)
+class _Reading:
+    """Joint values by name, as :func:`_tool_pose` and :func:`_clearance` read them."""
+
+    names: tuple[str, ...]
+    position: tuple[float, ...]
 
 
 def cmd_torque(args: argparse.Namespace) -> int:

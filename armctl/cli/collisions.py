@@ -58,8 +58,38 @@ def _check_options(args: argparse.Namespace) -> None:
     if args.write:
         given.insert(0, "--write")
     if given:
-        raise InputError(f"{' and '.join(given)} {'applies' if len(given) == 1 else 'apply'} "
-                         "with --generate only: add --generate to sample a new matrix")
+        what = {"--write": "stores the matrix that --generate finds",
+                "--samples": "how many configurations --generate samples",
+                "--seed": "the random seed of --generate's sampling"}
+        raise InputError(f"{' and '.join(given)} only {'matters' if len(given) == 1 else 'matter'}"
+                         f" with --generate ({'; '.join(f'{g}: {what[g]}' for g in given)}); "
+                         "without --generate the matrix in force is shown as the checks use "
+                         "it: add --generate to sample a new matrix")
+
+
+#: The chance [0, 1] that the sampling may miss a pair with; see :func:`_missable`.
+_MISS_CHANCE = 0.05
+
+
+def _missable(samples: int) -> float:
+    """The share of the joint space [0, 1] a pair may touch in and still be missed.
+
+    ``samples`` uniform configurations all miss a region that fills a share ``p`` of the joint
+    space with probability ``(1 - p) ** samples``; this is the ``p`` at which that is
+    :data:`_MISS_CHANCE` (about ``3 / samples``).
+    """
+    return 1.0 - _MISS_CHANCE ** (1.0 / samples)
+
+
+def _few_samples_line(samples: int, default: int) -> str | None:
+    """What fewer samples than the default mean for the matrix, or ``None``."""
+    if samples >= default:
+        return None
+    return (f"only {samples} samples: 1 time in {round(1 / _MISS_CHANCE)} they all miss a pair "
+            f"that touches in {_missable(samples):.1%} of the joint space, and a pair that "
+            "neither they nor the local search bring into contact becomes 'never' and is no "
+            f"longer checked; the default {default} samples bring that share down to "
+            f"{_missable(default):.3%}: use them before --write")
 
 
 def _writable_file(arm: Arm) -> Path:
@@ -198,7 +228,11 @@ def cmd_collisions(args: argparse.Namespace) -> int:
                      + (f"; kept {_pairs(kept)} marked 'user' in the file" if kept
                         else "")
                      + ")")
-        data.update(source="generated", samples=samples, seed=seed, user_pairs_kept=kept)
+        few = _few_samples_line(samples, DEFAULT_SAMPLES)
+        if few is not None:
+            lines.append(few)
+        data.update(source="generated", samples=samples, seed=seed, user_pairs_kept=kept,
+                    missable_share=_missable(samples))
     lines.append("")
     lines.append(table(["pair", "reason", "note"], _pair_rows(shown.allowed)) if shown.allowed
                  else "(no pairs: every pair is checked)")

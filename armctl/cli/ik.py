@@ -385,8 +385,13 @@ def reach_hint(arm: Arm, goal: Goal) -> str | None:
     reach = arm.reach(goal.frame, from_first_joint=True)
     if dist <= reach:
         return None
-    return (f"goal is {dist:.3g} m from the base joint; the arm reaches at most about "
+    hint = (f"goal is {dist:.3g} m from the base joint; the arm reaches at most about "
             f"{reach:.2f} m")
+    mm = np.asarray(target, dtype=float) / 1000.0
+    if float(np.linalg.norm(mm - base)) <= reach:  # the values fit as millimetres
+        hint += (f"; positions are in metres: did you mean {' '.join(f'{v:g}' for v in mm)} "
+                 f"({' '.join(f'{v * 1000:g}' for v in mm)} mm)?")
+    return hint
 
 
 def _warm_up(arm: Arm, req: IKRequest) -> None:

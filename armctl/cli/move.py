@@ -157,6 +157,7 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
             check_pose_dof(arm, (fixed,))
     _checks.check_speed_arg(args, arm)
     _checks.check_solver(args.solver)
+    _checks.check_deg_applies(args)  # --deg on a move without angles: nothing in degrees
     if fixed is not None:
         _checks.check_goal_reach(arm, fixed, args.solver)
     relative: dict[str, Any] = {}
@@ -166,8 +167,9 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
             assert fixed is not None  # mypy: built above
             goal = fixed
         else:
-            present = robot.arm.fk(robot.plan_start(), args.frame)
-            goal = relative_goal(robot.arm, present, args, axes)
+            start = robot.plan_start()
+            present = robot.arm.fk(start, args.frame)
+            goal = relative_goal(robot.arm, start, args, axes)
             relative.update({"from_xyz": present[:3, 3], "goal": goal})
 
         def show(plan: MotionPlan, ik: IKResult | None) -> bool:

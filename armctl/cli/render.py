@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from armctl.config.scene import SceneSpec
     from armctl.render.draw import Camera, View
     from armctl.render.picture import Target
+    from armctl.robot.live_watch import LiveWatcher
 
 ORDER = 60
 
@@ -101,20 +102,33 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("view", help="live 3-D view in the browser (extra 'view': viser)",
                        description="Serve a live 3-D view of the arm with joint sliders and a "
-                       "draggable IK target. Stops on Ctrl-C (or after --duration). The view "
-                       "never commands the arm: with --bus it only reads joint positions.")
+                       "draggable IK target. Stops on Ctrl-C (or after --duration). With a bus "
+                       "(--sim, --bus, --port) the page is a control panel: it previews targets "
+                       "and moves the arm through the same planning, limits and collision "
+                       "checks as the other verbs, with a Stop button and keyframes; --watch "
+                       "only reads joint positions. When another armctl command owns the port "
+                       "the view shows that command's live state.")
     add_config(p)
     p.add_argument("--host", default="127.0.0.1",
                    help="address to listen on (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=int, default=8080, help="TCP port (default 8080; 0: any free)")
+    p.add_argument("--http-port", type=int, default=8080, metavar="N",
+                   help="TCP port of the web server (default 8080; 0: any free)")
     p.add_argument("--bus", action="store_true",
                    help="follow the arm's servo bus (the 'bus:' section; the simulated bus "
                    "when it says so) by reading joint positions")
-    p.add_argument("--sim", action="store_true",
-                   help="with --bus: use the built-in simulated bus whatever port the config names")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--port", metavar="PORT",
+                       help="follow the servos on this port (a device, or the pty of 'armctl "
+                            "sim'); when another armctl command owns it, show that command live")
+    where.add_argument("--sim", action="store_true",
+                       help="follow the built-in simulated bus whatever port the config names")
     p.add_argument("--rate", type=positive, default=20.0, help="bus polls per second (20)")
     p.add_argument("--solver", default="auto", help="IK solver for the target (default auto)")
     p.add_argument("--duration", type=nonnegative, help="stop after this many seconds")
+    p.add_argument("--watch", action="store_true",
+                   help="with a bus: only show it (read joint positions), never command the arm")
+    p.add_argument("--token", metavar="TEXT",
+                   help="control panel: taking control of the arm needs this token")
     p.add_argument("--tip", help="URDF only: keep the chain to this link")
     add_json(p)
     p.set_defaults(func=cmd_view)
@@ -175,7 +189,7 @@ def _q(args: argparse.Namespace, arm: Arm) -> np.ndarray:
 def cmd_render(args: argparse.Namespace) -> int:
     """Draw the arm in one pose, a planned straight-line move, or a keyframe playback."""
     from armctl.cli._scene import clearance_data, clearance_text, scene_arg
-    from armctl.render.picture import render_pose
+    from armctl.render.picture import pose_title, render_pose
     from armctl.render.scene import scene_drawing
 
     arm = load_arm_arg(args)
@@ -192,7 +206,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     drawing = None if args.no_scene else scene_drawing(arm, q, scene)
     pic = render_pose(arm, q, args.output, view=view, camera=camera, frames=frames_arg(args),
                       target=target, size=args.size or 5.0, dpi=args.dpi or 110.0,
-                      scene=drawing)
+                      scene=drawing, title=pose_title(arm, q, args.deg))  # Q's unit
     lines = [f"wrote {pic.path} ({', '.join(c.name for c in pic.cameras)})",
              "tool at x {} y {} z {} m".format(*(fmt(v) for v in pic.tool_position))]
     if drawing is not None:
@@ -341,20 +355,34 @@ def cmd_workspace(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bus_reader(arm: Arm, sim: bool) -> Any:
-    import dataclasses
+def _bus_reader(arm: Arm, port: str | None, sim: bool) -> tuple[Any, LiveWatcher | None]:
+    """The bus the view follows, opened, or the live state of the armctl command that owns it.
 
-    from armctl.config.bus import SIM_PORT
+    Returns:
+        ``(bus, None)``, or ``(None, watcher)`` when another armctl command owns the port.
+    """
+    from armctl.cli._watch import port_owner
+    from armctl.robot.bus_choice import arm_on_bus
     from armctl.servo import ArmBus
     from armctl.servo.calibration import load_calibration
+    from armctl.servo.errors import PortError
 
-    spec = arm.spec
-    if spec.bus is None:
+    if arm.spec.bus is None and not sim:
         raise InputError(f"arm {arm.name!r} has no 'bus:' section, so there is no bus to follow;"
-                         " add one to the arm config or run the view without --bus")
-    if sim:
-        spec = dataclasses.replace(spec, bus=dataclasses.replace(spec.bus, port=SIM_PORT))
-    return ArmBus.from_spec(spec, load_calibration(arm.spec)).open()
+                         " add one to the arm config, use --sim, or run the view without --bus")
+    spec = arm_on_bus(arm, port, sim).spec
+    assert spec.bus is not None  # arm_on_bus gave it one  # mypy.
+    owner = port_owner(spec.bus, None)
+    if owner is not None:
+        return None, owner
+    bus = ArmBus.from_spec(spec, load_calibration(arm.spec))
+    try:
+        return bus.open(), None
+    except PortError as exc:
+        owner = port_owner(spec.bus, exc)
+        if owner is None:
+            raise
+        return None, owner
 
 
 def view_arm(arm: Arm, bus: Any = None) -> Arm:
@@ -374,28 +402,52 @@ def view_arm(arm: Arm, bus: Any = None) -> Arm:
 
 def cmd_view(args: argparse.Namespace) -> int:
     """Serve the live view until interrupted."""
+    from armctl.cli._panel import serve_panel, warn_exposed
+    from armctl.cli._watch import OwnerFollower, check_same_arm
     from armctl.render.live import LiveView
 
+    if args.port is not None and args.port.strip().isdigit():
+        raise InputError(f"--port {args.port}: --port names the servo bus port the view follows "
+                         "(a device such as /dev/ttyACM0, or the pty of 'armctl sim'); the web "
+                         f"server's TCP port is --http-port {args.port.strip()}")
     arm = load_arm_arg(args)
-    if not 0 <= args.port <= 65535:
-        raise InputError(f"--port {args.port} is not a TCP port (0-65535)")
+    if not 0 <= args.http_port <= 65535:
+        raise InputError(f"--http-port {args.http_port} is not a TCP port (0-65535)")
     if args.rate <= 0:
         raise InputError(f"--rate must be positive, got {args.rate}")
-    if args.sim and not args.bus:
-        raise InputError("--sim applies to --bus (the bus the view follows)")
-    bus = _bus_reader(arm, args.sim) if args.bus else None
+    control = (args.bus or args.sim or args.port is not None) and not args.watch
+    warn_exposed(args.host, args.token, control)
+    if control:  # the control panel, unless another armctl command owns the port
+        code = serve_panel(args, arm)
+        if code is not None:
+            return code
+    bus, owner = (_bus_reader(arm, args.port, args.sim)
+                  if args.bus or args.sim or args.port is not None else (None, None))
     try:
         arm = view_arm(arm, bus)
+        if owner is not None:
+            check_same_arm(owner.hello, arm.name, arm.joint_names)
     except BaseException:
         if bus is not None:
             bus.close()
+        if owner is not None:
+            owner.close()
         raise
-    view = LiveView(arm, args.host, args.port, args.solver)
+    view = LiveView(arm, args.host, args.http_port, args.solver)
+    follower = None
     try:
         url = view.start()
         if bus is not None:
             view.follow(bus.read_joints, args.rate)
-        emit(args, {"url": url, "port": view.port, "bus": bus is not None},
+        elif owner is not None:
+            say = None if args.json else print
+            follower = OwnerFollower(owner, arm.name, arm.joint_names, view.q, say)
+            view.follow(follower.read, args.rate)
+        bus_port = (bus.spec.port if bus is not None else
+                    owner.hello.port if owner is not None else None)
+        emit(args, {"url": url, "http_port": view.port,
+                    "bus": bus is not None or owner is not None, "bus_port": bus_port,
+                    "attached": None if owner is None else owner.hello.as_json()},
              f"live view of {arm.name!r} at {url} (Ctrl-C stops)")
         sys.stdout.flush()
         end = math.inf if args.duration is None else time.monotonic() + args.duration
@@ -405,4 +457,8 @@ def cmd_view(args: argparse.Namespace) -> int:
         view.stop()
         if bus is not None:
             bus.close()
+        if follower is not None:
+            follower.close()
+        elif owner is not None:
+            owner.close()
     return 0

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from armctl.cli._bus_choice import add_bus_choice
-from armctl.cli._common import add_config, add_json, emit, load_arm_arg
+from armctl.cli._common import add_config, add_json, add_log_option, emit, load_arm_arg
 from armctl.cli._scene import add_scene_option
 
 ORDER = 41
@@ -32,6 +32,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="write angles in degrees (with --append: the file's unit is kept)")
     add_bus_choice(p)  # --port PORT | --sim
     add_scene_option(p)  # --scene FILE
+    add_log_option(p)  # --log FILE.csv: every jog of the session
     add_json(p)
     p.set_defaults(func=cmd_teach)
 
@@ -41,7 +42,7 @@ def cmd_teach(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from armctl.cli import _checks
-    from armctl.cli._motion_run import open_robot
+    from armctl.cli._motion_run import _CycleRecorder, open_robot
     from armctl.cli._teach_loop import TEACH_HELP, teach_loop
     from armctl.motion import AngleUnit
     from armctl.robot.teach import ExistingFile, TeachSession
@@ -50,7 +51,14 @@ def cmd_teach(args: argparse.Namespace) -> int:
     _checks.check_teach_output(args, arm)
     existing = (ExistingFile.APPEND if args.append else
                 ExistingFile.OVERWRITE if args.force else ExistingFile.REFUSE)
+    if args.log is not None:
+        from armctl.robot.motion_log import check_log_target
+
+        check_log_target(args.log)  # before the bus opens
     robot = open_robot(args, arm, hold=True)  # the stiff joints (grippers) hold from the start
+    # --log: the cycles of every move the session makes (the jogs), on one time axis
+    recorder = _CycleRecorder(robot, args.log) if args.log is not None else None
+    ended = False
     try:
         session = TeachSession(robot, args.output, args.release,
                                AngleUnit.DEG if args.deg else AngleUnit.RAD, existing=existing)
@@ -66,8 +74,15 @@ def cmd_teach(args: argparse.Namespace) -> int:
             say("\ninterrupted: keeping what was recorded")
         finally:
             session.finish()
+        ended = True
     finally:
-        robot.close()
+        try:
+            if recorder is not None and ended:
+                recorder.write(quiet=args.json)
+            elif recorder is not None:  # what ran before the failure; never masks it
+                recorder.write_after_failure()
+        finally:
+            robot.close()
     n = len(session.program.keyframes)
     written = Path(args.output).exists()
     text = f"{n} keyframes in {args.output}"

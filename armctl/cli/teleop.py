@@ -55,6 +55,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--every", type=positive, default=None, metavar="MS",
                    help="with --record: sample a trajectory every MS milliseconds (10-1000)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --record file")
+    p.add_argument("--leader-as-follower", action="store_true",
+                   help="drive a FOLLOWER whose config says 'role: leader' (refused otherwise: "
+                        "a leader arm is moved by hand, and LEADER and FOLLOWER may be swapped)")
     p.add_argument("--leader-port", metavar="PORT", default=None,
                    help="the leader's port instead of its config's (a device, or the pty of "
                         "'armctl sim')")
@@ -88,6 +91,40 @@ def _arm(config: str, port: str | None, sim: bool, option: str) -> Arm:
     if port is not None and sim:
         raise InputError(f"{option} and --sim exclude each other")
     return arm_on_chosen_bus(argparse.Namespace(port=port, sim=sim), load_arm(config))
+
+
+def _check_roles(leader: Arm, follower: Arm, leader_as_follower: bool) -> None:
+    """Refuse a leader arm as FOLLOWER; warn about a LEADER that is not a leader arm.
+
+    The configs say which arms are leaders (``role: leader``). Teleoperation switches the
+    LEADER's torque off: a follower given as LEADER goes limp, and a leader given as FOLLOWER
+    is driven by servos made to be moved by hand.
+
+    Raises:
+        InputError: FOLLOWER is a leader arm and ``--leader-as-follower`` is not given; says
+            whether the two look swapped and the command line that has them the right way.
+    """
+    from armctl.config.schema import ArmRole
+
+    def where(arm: Arm) -> str:
+        return f"its config {arm.spec.file} says" if arm.spec.file else "its config says"
+
+    is_leader = leader.spec.role is ArmRole.LEADER
+    if follower.spec.role is ArmRole.LEADER and not leader_as_follower:
+        if not is_leader:
+            raise InputError(
+                f"LEADER and FOLLOWER look swapped: FOLLOWER {follower.name!r} is a leader arm "
+                f"({where(follower)} 'role: leader') and LEADER {leader.name!r} is not; the "
+                f"leader comes first: 'armctl teleop {follower.name} {leader.name}' (or add "
+                "--leader-as-follower to drive the leader arm anyway)")
+        raise InputError(
+            f"FOLLOWER {follower.name!r} is a leader arm ({where(follower)} 'role: leader'): "
+            "its servos are made to be moved by hand; give a follower arm as FOLLOWER (or add "
+            "--leader-as-follower to drive it anyway)")
+    if not is_leader:
+        print(f"armctl: warning: LEADER {leader.name!r} is not a leader arm (its config has no "
+              "'role: leader'): its torque goes off and it is moved by hand; support it",
+              file=sys.stderr, flush=True)
 
 
 def _servo_joints(arm: Arm) -> list[str]:
@@ -142,6 +179,7 @@ def cmd_teleop(args: argparse.Namespace) -> int:
                          "'armctl sim' ports)")
     leader_arm = _arm(args.leader, args.leader_port, args.sim, "--leader-port")
     follower_arm = _arm(args.follower, args.follower_port, args.sim, "--follower-port")
+    _check_roles(leader_arm, follower_arm, args.leader_as_follower)  # before any bus opens
     paired_joints(leader_arm.name, _servo_joints(leader_arm), follower_arm.name,
                   _servo_joints(follower_arm), options.scales)  # before any bus opens
     scene = scene_arg(args, follower_arm)  # --scene FILE: the follower's

@@ -13,6 +13,7 @@ import numpy as np
 
 from armctl.config.format_yaml import SCHEMA_VERSION, check_version, parse_origin, parse_shape
 from armctl.config.schema import (
+    ArmRole,
     ArmSpec,
     FrameSpec,
     JointRole,
@@ -32,7 +33,7 @@ __all__ = ["SCHEMA_VERSION", "load_arm_yaml", "parse_arm"]
 _TOP_REQUIRED = ("name", "base", "joints")
 _TOP_OPTIONAL = (
     "armctl", "description", "source", "dh_convention", "links", "frames", "tool",
-    "end_effectors", "poses", "bus", "motion", "scene", "collision",
+    "end_effectors", "poses", "bus", "motion", "scene", "collision", "role",
 )
 _JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "universal", "spherical")
 _DEFAULT_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -96,6 +97,7 @@ def parse_arm(doc: Document) -> ArmSpec:
         frames=tuple(frames), tool=tool, end_effectors=end_effectors, poses=poses,
         description=top.string("description", required=False),
         source=top.string("source", required=False), file=doc.file,
+        role=top.choice("role", ArmRole, [r.value for r in ArmRole], ArmRole.ARM),
     )
     if top.has("bus"):
         from armctl.config.bus import parse_bus

@@ -88,6 +88,17 @@ class JointRole(Enum):
     GRIPPER = "gripper"
 
 
+class ArmRole(Enum):
+    """What an arm is for: an arm that moves (``arm``), or a leader that is moved by hand.
+
+    A leader (``role: leader``) is read by ``armctl teleop``, which switches its torque off;
+    it is the arm a follower copies, never the follower.
+    """
+
+    ARM = "arm"
+    LEADER = "leader"
+
+
 @dataclass(frozen=True)
 class Limits:
     """Joint limits in SI units; position limits are infinite for continuous joints.
@@ -193,6 +204,7 @@ class ArmSpec:
             table at the base frame's xy plane and the default padding).
         collision: The ``collision:`` section (allowed-collision matrix); ``None``: not
             given (the matrix is found by sampling when first needed).
+        role: ``leader`` for a leader arm moved by hand in teleoperation, else ``arm``.
     """
 
     name: str
@@ -210,6 +222,7 @@ class ArmSpec:
     file: Path | None = None
     scene: SceneSpec | None = None
     collision: CollisionSpec | None = None
+    role: ArmRole = ArmRole.ARM
 
     def link(self, name: str) -> LinkSpec:
         """The link called ``name``."""

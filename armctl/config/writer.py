@@ -18,6 +18,7 @@ import yaml
 from armctl.config.arm_yaml import SCHEMA_VERSION, origin_from_matrix
 from armctl.config.scene import AllowedPair, CollisionSpec, SceneSpec
 from armctl.config.schema import (
+    ArmRole,
     ArmSpec,
     Box,
     Capsule,
@@ -214,6 +215,8 @@ def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "")
         lines.append(f"description: {_text(spec.description)}")
     if spec.source:
         lines.append(f"source: {_text(spec.source)}")
+    if spec.role is not ArmRole.ARM:
+        lines.append(f"role: {spec.role.value}")
     lines.append(f"base: {_text(spec.base)}")
     lines.append(f"tool: {_text(spec.tool)}")
     if len(spec.end_effectors) > 1:

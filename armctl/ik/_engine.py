@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from typing import Any
 
 import numba as nb
@@ -71,12 +72,13 @@ from armctl.ik._steps import (
     _pinv_step,
     _wrap_into,
 )
+from armctl.kinematics._kernels import fk_into
 
 __all__ = [
     "CCD", "CCD_JT", "CONVERGED", "DIRECTION", "DLS", "JT", "MAX_ITERATIONS", "NS_LIMITS",
     "NS_MANIP", "NS_POSTURE", "NS_SPHERES", "ORIENTATION", "PINV", "POSE", "POSITION",
-    "TIME_LIMIT", "ccd_angle", "ccd_coefficients", "goal_error", "joint_frames", "ns_objective",
-    "rand01", "solve", "solve_batch",
+    "TIME_LIMIT", "ccd_angle", "ccd_coefficients", "entry_point", "goal_error", "joint_frames",
+    "ns_objective", "rand01", "solve", "solve_batch", "solve_checked",
 ]
 
 #: ``(lower, upper, jd, parent, fd, paths)``, see the module docstring.
@@ -90,10 +92,16 @@ RunGroup = tuple[int, np.ndarray, int, int, float]
 NullSpaceGroup = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 _OPTS = NJIT
-_OPTS_CLOCK: dict[str, Any] = {"cache": True, "error_model": "numpy"}  # these read the clock
+# these read the clock, in object mode, which takes the GIL for the read; the rest of their
+# work runs without it (batches on several threads)
+_OPTS_CLOCK: dict[str, Any] = {"cache": True, "nogil": True, "error_model": "numpy"}
+warnings.filterwarnings("ignore", message="Code running in object mode won't allow parallel",
+                        category=nb.NumbaWarning)
 
 PINV, DLS, JT, CCD, CCD_JT = 0, 1, 2, 3, 4
 CONVERGED, MAX_ITERATIONS, TIME_LIMIT = 0, 1, 2
+#: :func:`solve_checked`: the start has a NaN or infinite value (nothing was solved)
+BAD_START = -1
 
 # indices into the parameter vector ``prm``
 P_LAMBDA0 = 0  # damping floor of DLS
@@ -107,7 +115,14 @@ P_NS_ITER = 7  # null space: iterations spent improving the objective once the g
 P_NS_GAIN = 8  # null space: step gain on the objective's gradient
 P_NS_STEP = 9  # null space: largest joint change of one null-space step [rad] / [m]
 P_ROT_W = 10  # weight of the orientation rows of the residual [m/rad]
-N_PARAMS = 11
+P_MU0 = 11  # DLS: the damping factor mu at the start of an attempt (lambda = mu E + lambda_0)
+P_MU_DOWN = 12  # DLS: mu is multiplied by this after a step that lowers E ...
+P_MU_MIN = 13  # ... down to this
+P_MU_UP = 14  # DLS: mu is multiplied by this after a step that does not lower E
+P_PATIENT = 15  # attempts after this many use the patient stall test (P_WINDOW2, P_RATIO2)
+P_WINDOW2 = 16  # the stall window of the later attempts [iterations]
+P_RATIO2 = 17  # the stall ratio of the later attempts
+N_PARAMS = 18
 
 
 
@@ -176,28 +191,54 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
     ng = gf.shape[0]
     m = n_rows(gt)
     k = max(m, n)
-    pose = np.empty((ng, 4, 4))
-    pose2 = np.empty((ng, 4, 4))
-    jg = np.empty((6, n))
-    e = np.empty(m)
-    jac = np.empty((m, n))
-    e2 = np.empty(m)
-    a = np.empty((k, k))
-    b = np.empty(k)
-    y = np.empty(k)
-    dq = np.empty(n)
-    q = np.empty(n)
-    qn = np.empty(n)
-    proj = np.empty((n, n))
-    grad = np.empty(n)
-    dz = np.empty(n)
-    tmp = np.empty(m)
-    jfree = np.empty((m, n))
-    efree = np.empty(m)
+    # the work arrays, carved from one allocation (one allocation costs as much as a small
+    # step; a solve that converges at once would spend most of its time allocating)
+    ws = np.empty(32 * ng + 5 * m + 3 * m * n + k * k + 2 * k + 23 * n + n * n + 52)
+    o = 0
+    pose = ws[o:o + 16 * ng].reshape((ng, 4, 4))
+    o += 16 * ng
+    pose2 = ws[o:o + 16 * ng].reshape((ng, 4, 4))
+    o += 16 * ng
+    jg = ws[o:o + 6 * n].reshape((6, n))
+    o += 6 * n
+    e = ws[o:o + m]
+    o += m
+    jac = ws[o:o + m * n].reshape((m, n))
+    o += m * n
+    e2 = ws[o:o + m]
+    o += m
+    a = ws[o:o + k * k].reshape((k, k))
+    o += k * k
+    b = ws[o:o + k]
+    o += k
+    y = ws[o:o + k]
+    o += k
+    dq = ws[o:o + n]
+    o += n
+    q = ws[o:o + n]
+    o += n
+    qn = ws[o:o + n]
+    o += n
+    proj = ws[o:o + n * n].reshape((n, n))
+    o += n * n
+    grad = ws[o:o + n]
+    o += n
+    dz = ws[o:o + n]
+    o += n
+    tmp = ws[o:o + m]
+    o += m
+    jfree = ws[o:o + m * n].reshape((m, n))
+    o += m * n
+    jac2 = ws[o:o + m * n].reshape((m, n))
+    o += m * n
+    efree = ws[o:o + m]
+    o += m
+    world = ws[o:o + 12 * n].reshape((n, 3, 4))
+    o += 12 * n
+    spose = ws[o:o + 16].reshape((4, 4))
+    o += 16
+    a6 = ws[o:o + 36].reshape((6, 6))
     fixed = np.empty(n, dtype=np.int64)
-    world = np.empty((n, 3, 4))
-    spose = np.empty((4, 4))
-    a6 = np.empty((6, 6))
     movable = np.zeros(n, dtype=np.bool_)
     for g in range(ng):
         for i in range(n):
@@ -205,11 +246,10 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
                 movable[i] = True
     use_ns = (method == PINV or method == DLS) and (nsw[0] != 0.0 or nsw[1] != 0.0
                                                       or nsw[2] != 0.0 or nsw[3] != 0.0)
+    lazy = method == DLS and not use_ns
     mframe = gf[0]
     margin = prm[P_MARGIN]
     rw = prm[P_ROT_W]
-    window = max(int(prm[P_WINDOW]), 1)
-    ratio = prm[P_RATIO]
     max_step = prm[P_MAX_STEP]
     best_e = np.inf
     total = 0
@@ -229,8 +269,20 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
                 q[i] = q0[i]
             _clamp(q, lower, upper)
             _random_q(lower, upper, state, mask, q)
-        en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, True)
-        mu = 1.0
+        # DLS without null-space criteria forms the Jacobian only when it takes a step: a
+        # start or an accepted step that meets the goals ends the solve without it
+        en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, not lazy)
+        need_jac = lazy
+        mu = prm[P_MU0]
+        # early attempts give up quickly on a start that makes little progress (most goals
+        # are met from the first or second start); later ones, for the goals that are hard
+        # from most starts (near the limits), are patient
+        if att < int(prm[P_PATIENT]):
+            window = max(int(prm[P_WINDOW]), 1)
+            ratio = prm[P_RATIO]
+        else:
+            window = max(int(prm[P_WINDOW2]), 1)
+            ratio = prm[P_RATIO2]
         # every DLS attempt first ignores the limits (clamping creates false minima at the
         # limits: from random starts, most clamped attempts that fail end at a limit); a
         # solution found that way is wrapped by 2 pi into the ranges, or else clamped and
@@ -254,8 +306,9 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
                 if not _wrap_into(q, lower, upper, jd):
                     _clamp(q, lower, upper)
                     en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, True)
+                    need_jac = False
                     met = _all_met(gt, gd, gtol, pose, margin)
-                    mu = 1.0
+                    mu = prm[P_MU0]
             if met:
                 if not use_ns:
                     for i in range(n):
@@ -278,6 +331,9 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
                 ns_count += 1
                 if ns_count > int(prm[P_NS_ITER]) or ns_stale >= 6:
                     return CONVERGED, total, att + 1, stalled
+            if need_jac:
+                en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, True)
+                need_jac = False
             total += 1
             if (it + 1) % 256 == 0 and deadline > 0.0 and _now() > deadline:
                 ended = True
@@ -314,15 +370,20 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
                 if not free:
                     _clamp(qn, lower, upper)
                 if method == DLS and not use_ns:
+                    # the trial forms its Jacobian too: most steps are taken, and a taken step
+                    # then needs no second pass over the chain
                     en2 = _residual(qn, jd, fd, paths, gf, gt, gd, gw, rw,
-                                    pose2, jg, e2, jac, False)
+                                    pose2, jg, e2, jac2, True)
                     if en2 < en:
-                        mu = max(mu * 0.25, 1e-3)
+                        mu = max(mu * prm[P_MU_DOWN], prm[P_MU_MIN])
                         for i in range(n):
                             q[i] = qn[i]
-                        en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, True)
+                        en = en2
+                        pose, pose2 = pose2, pose
+                        e, e2 = e2, e
+                        jac, jac2 = jac2, jac
                     else:
-                        mu *= 8.0
+                        mu *= prm[P_MU_UP]
                         if mu > 1e12:
                             stalled += 1
                             ended = True
@@ -398,3 +459,93 @@ def solve_batch(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
         info[b, 1] = it
         info[b, 2] = att
         info[b, 3] = stl
+
+
+@nb.njit(**_OPTS_CLOCK)
+def solve_checked(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup, seed: int,
+                  q_out: np.ndarray, errs: np.ndarray
+                  ) -> tuple[int, int, int, int, bool, float, float]:
+    """:func:`solve` without null-space criteria, then the answer checked by forward kinematics.
+
+    One compiled call for the whole of a plain numerical solve: the start is checked and
+    clamped, the search runs, the answer is wrapped (joints without limits into [-pi, pi)) and
+    then checked on its own: forward kinematics of the wrapped answer, every goal's error
+    against its tolerance (:func:`armctl.ik._residual.goal_error`, as ``Goal.errors``) and the
+    joint limits (1e-9 of slack, as ``KinematicModel.within_limits``).
+
+    Args:
+        q0: Start ``(n,)`` as given (not yet clamped; a NaN or infinite value returns
+            :data:`BAD_START` without solving).
+        arm: See :func:`solve`.
+        goals: See :func:`solve`.
+        run: See :func:`solve`.
+        seed: The generator's state (the 64 bits of :func:`armctl.ik._pack.seed_state`, as a
+            signed integer).
+        q_out: Receives the answer ``(n,)``, wrapped.
+        errs: ``(G, 2)``: receives each goal's position [m] and rotation [rad] error at
+            ``q_out``.
+
+    Returns:
+        ``(status, iterations, attempts, stalled, ok, position error, rotation error)``: those
+        of :func:`solve`; whether the answer is finite, meets every goal within its tolerance
+        and lies inside the limits; the largest errors over the goals [m], [rad] (NaN for an
+        answer that is not finite).
+    """
+    lower, upper, jd, _parent, fd, paths = arm
+    gf, gt, gd, _gw, gtol, _mask = goals
+    n = q0.shape[0]
+    for i in range(n):
+        if not math.isfinite(q0[i]):
+            return BAD_START, 0, 0, 0, False, np.nan, np.nan
+    state = np.empty(1, dtype=np.uint64)
+    state[0] = np.uint64(seed)
+    buf = np.zeros(20 + n)  # no null-space weights (nor a posture or spheres), no trace
+    nsw = buf[0:4]
+    pose = buf[4:20].reshape((4, 4))
+    pref = buf[20:20 + n]
+    spheres = buf[0:0].reshape((0, 5))
+    trace = buf[0:0].reshape((0, 2))
+    for i in range(n):
+        q_out[i] = np.nan
+    status, iters, att, stalled = solve(q0, arm, goals, run, (nsw, pref, spheres), state, q_out,
+                                        trace)
+    finite = True
+    ok = True
+    for i in range(n):
+        v = q_out[i]
+        if not math.isfinite(v):
+            finite = False
+            continue
+        if not (math.isfinite(lower[i]) and math.isfinite(upper[i])):
+            v = (v + math.pi) % (2.0 * math.pi) - math.pi
+            q_out[i] = v
+        if not (lower[i] - 1e-9 <= v <= upper[i] + 1e-9):
+            ok = False
+    ok = ok and finite
+    dp_max = 0.0
+    dr_max = 0.0
+    for g in range(gf.shape[0]):
+        if finite:
+            fk_into(q_out, jd, fd, paths, gf[g], pose)
+            dp, dr = goal_error(gt[g], gd[g], pose)
+        else:
+            dp, dr = np.nan, np.nan
+        errs[g, 0] = dp
+        errs[g, 1] = dr
+        dp_max = max(dp_max, dp) if dp == dp else dp
+        dr_max = max(dr_max, dr) if dr == dr else dr
+        if not (dp <= gtol[g, 0] and dr <= gtol[g, 1]):
+            ok = False
+    return status, iters, att, stalled, ok, dp_max, dr_max
+
+
+def entry_point(kernel: Any, args: tuple[Any, ...]) -> Any:
+    """The compiled function ``kernel`` runs for arguments of the types of ``args``, or None.
+
+    Calling it skips the dispatcher's type checks (about half a microsecond for the many arrays
+    of :func:`solve_checked`): the caller must pass arguments of exactly these types (arrays of
+    the same dtype, dimensions and layout; integers and floats where these have them) or the
+    compiled code misreads them. ``None`` before ``kernel`` has run for these types.
+    """
+    cres = kernel.overloads.get(tuple(nb.typeof(a) for a in args))
+    return None if cres is None else cres.entry_point

@@ -17,8 +17,8 @@ from armctl.ik.goals import Goal
 from armctl.kinematics.model import KinematicModel
 from armctl.typing import Array
 
-__all__ = ["GoalArrays", "ModelArrays", "goal_kernel", "goal_row", "model_arrays", "pack_goals",
-           "seed_state"]
+__all__ = ["GoalArrays", "ModelArrays", "goal_kernel", "goal_row", "goal_structure",
+           "model_arrays", "pack_goals", "seed_state", "seed_value"]
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,7 @@ _STRUCTURES: weakref.WeakKeyDictionary[KinematicModel, dict[_Key, _Structure]] =
 _MAX_STRUCTURES = 256  # per model; the cache starts afresh when full
 
 
-def _structure(model: KinematicModel, goals: Sequence[Goal]) -> _Structure:
+def goal_structure(model: KinematicModel, goals: Sequence[Goal]) -> _Structure:
     """The arrays of the goals that do not depend on their targets (cached per model).
 
     The arrays are shared between calls: the kernels only read them.
@@ -131,7 +131,7 @@ def goal_kernel(model: KinematicModel, goals: Sequence[Goal]) -> E.GoalGroup:
     What :func:`pack_goals` holds, without the record around it (one object less per call);
     raises InputError for an unknown frame.
     """
-    gf, gt, gw, gtol, mask = _structure(model, goals)
+    gf, gt, gw, gtol, mask = goal_structure(model, goals)
     gd = np.array(goals[0].packed(), dtype=float, ndmin=2) if len(goals) == 1 else np.array(
         [goal_row(goal) for goal in goals], dtype=float)
     return gf, gt, gd, gw, gtol, mask
@@ -149,13 +149,30 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_ENTROPY.seed)
 
 
+def _seed_bits(seed: int | None) -> int:
+    """The 64 bits of the engine's RNG state for a seed (``None``: fresh entropy)."""
+    if seed is None:
+        return _ENTROPY.getrandbits(64)
+    return (int(seed) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & (2**64 - 1)
+
+
 def seed_state(seed: int | None) -> npt.NDArray[np.uint64]:
     """The engine's RNG state for a seed (``None``: fresh entropy)."""
-    if seed is None:
-        value = _ENTROPY.getrandbits(64)
-    else:
-        value = (int(seed) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & (2**64 - 1)
-    return np.array([value], dtype=np.uint64)
+    return np.array([_seed_bits(seed)], dtype=np.uint64)
+
+
+_SIGNED: dict[int, int] = {}  # seed -> seed_value(seed), for the few seeds callers use
+
+
+def seed_value(seed: int | None) -> int:
+    """:func:`seed_state`'s 64 bits as a signed integer (a compiled kernel's ``int64``)."""
+    got = _SIGNED.get(seed) if seed is not None else None
+    if got is None:
+        bits = _seed_bits(seed)
+        got = bits - 2**64 if bits >= 2**63 else bits
+        if seed is not None and len(_SIGNED) < 64:
+            _SIGNED[seed] = got
+    return got
 
 
 def wrap_continuous(q: Array, continuous: npt.NDArray[np.bool_]) -> Array:

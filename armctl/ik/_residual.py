@@ -33,7 +33,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
-from armctl.ik.goals import GoalKind
+from armctl.ik.goals import GoalKind, use_compiled_checks
 from armctl.kinematics._kernels import fk_into, fk_jacobian_into
 
 #: numba options shared by the IK kernels
@@ -71,30 +71,40 @@ def _angle(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> 
 
 
 @nb.njit(inline="always", **NJIT)
-def _relative_rotation(gd: np.ndarray, pose: np.ndarray, d: np.ndarray) -> None:
-    """``d = R_target @ R^T`` for the goal row ``gd`` and a frame pose."""
-    for i in range(3):
-        for j in range(3):
-            d[i, j] = (gd[3 + 3 * i] * pose[j, 0] + gd[4 + 3 * i] * pose[j, 1]
-                       + gd[5 + 3 * i] * pose[j, 2])
+def _relative_rotation(gd: np.ndarray, pose: np.ndarray) -> tuple[float, float, float, float,
+                                                                  float, float, float, float,
+                                                                  float]:
+    """``d = R_target @ R^T`` for the goal row ``gd`` and a frame pose, row-major."""
+    return (gd[3] * pose[0, 0] + gd[4] * pose[0, 1] + gd[5] * pose[0, 2],
+            gd[3] * pose[1, 0] + gd[4] * pose[1, 1] + gd[5] * pose[1, 2],
+            gd[3] * pose[2, 0] + gd[4] * pose[2, 1] + gd[5] * pose[2, 2],
+            gd[6] * pose[0, 0] + gd[7] * pose[0, 1] + gd[8] * pose[0, 2],
+            gd[6] * pose[1, 0] + gd[7] * pose[1, 1] + gd[8] * pose[1, 2],
+            gd[6] * pose[2, 0] + gd[7] * pose[2, 1] + gd[8] * pose[2, 2],
+            gd[9] * pose[0, 0] + gd[10] * pose[0, 1] + gd[11] * pose[0, 2],
+            gd[9] * pose[1, 0] + gd[10] * pose[1, 1] + gd[11] * pose[1, 2],
+            gd[9] * pose[2, 0] + gd[10] * pose[2, 1] + gd[11] * pose[2, 2])
 
 
 @nb.njit(**NJIT)
 def _rotation_error(gd: np.ndarray, pose: np.ndarray, out: np.ndarray, k: int, s: float) -> None:
     """``out[k:k+3] = s * log(R_target R^T)`` (rotation vector, base frame) [rad]."""
-    d = np.empty((3, 3))
-    _relative_rotation(gd, pose, d)
-    v0 = d[2, 1] - d[1, 2]
-    v1 = d[0, 2] - d[2, 0]
-    v2 = d[1, 0] - d[0, 1]
+    d00, d01, d02, d10, d11, d12, d20, d21, d22 = _relative_rotation(gd, pose)
+    v0 = d21 - d12
+    v1 = d02 - d20
+    v2 = d10 - d01
     sn = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-    c = (d[0, 0] + d[1, 1] + d[2, 2] - 1.0) / 2.0
+    c = (d00 + d11 + d22 - 1.0) / 2.0
     ang = math.atan2(sn / 2.0, c)
     if ang < 1e-9:
         f = 0.5
     elif ang < math.pi - 1e-6:
         f = ang / sn
     else:  # near pi: the axis from the symmetric part, the sign from the skew part
+        d = np.empty((3, 3))
+        d[0, 0], d[0, 1], d[0, 2] = d00, d01, d02
+        d[1, 0], d[1, 1], d[1, 2] = d10, d11, d12
+        d[2, 0], d[2, 1], d[2, 2] = d20, d21, d22
         b = 0
         for i in range(3):
             if d[i, i] > d[b, b]:
@@ -125,12 +135,11 @@ def goal_error(t: int, gd: np.ndarray, pose: np.ndarray) -> tuple[float, float]:
         z = gd[2] - pose[2, 3]
         dp = math.sqrt(x * x + y * y + z * z)
     if t == ORIENTATION or t == POSE:
-        d = np.empty((3, 3))
-        _relative_rotation(gd, pose, d)
-        v0 = d[2, 1] - d[1, 2]
-        v1 = d[0, 2] - d[2, 0]
-        v2 = d[1, 0] - d[0, 1]
-        c = (d[0, 0] + d[1, 1] + d[2, 2] - 1.0) / 2.0
+        d00, d01, d02, d10, d11, d12, d20, d21, d22 = _relative_rotation(gd, pose)
+        v0 = d21 - d12
+        v1 = d02 - d20
+        v2 = d10 - d01
+        c = (d00 + d11 + d22 - 1.0) / 2.0
         dr = math.atan2(math.sqrt(v0 * v0 + v1 * v1 + v2 * v2) / 2.0, c)
     elif t == DIRECTION:
         a0, a1, a2 = _tool_axis(gd, pose)
@@ -266,3 +275,43 @@ def _residual(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, 
     return 0.5 * en
 
 
+
+
+@nb.njit(**NJIT)
+def pose_goal_row(pose: np.ndarray, row: np.ndarray, orthonormal: float) -> bool:
+    """Whether a pose goal's ``(4, 4)`` transform needs no repair; if so, its packed targets.
+
+    True when every number is finite, the last row is ``0 0 0 1`` and the rotation has
+    ``max |R R^T - I| <= orthonormal`` and a positive determinant (the test of
+    :func:`armctl.ik.goals._check_rotation`, the same arithmetic); then ``row`` ``(1, 18)``
+    receives :meth:`armctl.ik.goals.PoseGoal.packed`. False for anything else, which the goal's
+    Python check then refuses or repairs.
+    """
+    for i in range(3):
+        for j in range(4):
+            if not math.isfinite(pose[i, j]):
+                return False
+    if pose[3, 0] != 0.0 or pose[3, 1] != 0.0 or pose[3, 2] != 0.0 or pose[3, 3] != 1.0:
+        return False
+    x0, x1, x2 = pose[0, 0], pose[0, 1], pose[0, 2]
+    y0, y1, y2 = pose[1, 0], pose[1, 1], pose[1, 2]
+    z0, z1, z2 = pose[2, 0], pose[2, 1], pose[2, 2]
+    off = max(abs(x0 * x0 + x1 * x1 + x2 * x2 - 1.0), abs(y0 * y0 + y1 * y1 + y2 * y2 - 1.0),
+              abs(z0 * z0 + z1 * z1 + z2 * z2 - 1.0), abs(x0 * y0 + x1 * y1 + x2 * y2),
+              abs(x0 * z0 + x1 * z1 + x2 * z2), abs(y0 * z0 + y1 * z1 + y2 * z2))
+    det = x0 * (y1 * z2 - y2 * z1) - x1 * (y0 * z2 - y2 * z0) + x2 * (y0 * z1 - y1 * z0)
+    if not off <= orthonormal or det < 0.0:
+        return False
+    row[0, 0] = pose[0, 3]
+    row[0, 1] = pose[1, 3]
+    row[0, 2] = pose[2, 3]
+    for i in range(3):
+        for j in range(3):
+            row[0, 3 + 3 * i + j] = pose[i, j]
+    for k in range(12, 17):
+        row[0, k] = 0.0
+    row[0, 17] = 1.0
+    return True
+
+
+use_compiled_checks(pose_row=pose_goal_row)

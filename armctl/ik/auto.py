@@ -24,13 +24,13 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from armctl.ik.goals import Goal
-from armctl.ik.numerical import check_no_constraints, run_method
+from armctl.ik.numerical import check_no_constraints, run_method, solve_goal
 from armctl.ik.options import IKOptions
 from armctl.ik.result import IKResult, IKStatus, finish
 from armctl.kinematics.model import KinematicModel
 from armctl.typing import Array
 
-__all__ = ["auto"]
+__all__ = ["auto", "auto_goal", "closed_form"]
 
 
 #: per model: (frame, goal type) -> whether the analytic solver has a closed form for it
@@ -77,6 +77,50 @@ def auto(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKO
     res = run_method("dls", model, goals, q0, options, (), started=started, label="auto")
     if res.success:
         return res
+    return _closed_form(model, goals, q0, options, res, started)
+
+
+def auto_goal(model: KinematicModel, goal: Goal, q0: Any,
+              options: IKOptions | None) -> IKResult | None:
+    """:func:`auto` for one goal by the short path (:func:`armctl.ik.numerical.solve_goal`).
+
+    ``q0`` as the caller gave it (``None``: the middle of the ranges); ``None`` when the
+    options need the full path.
+    """
+    res = solve_goal("dls", model, goal, q0, options, "auto")
+    if res is None or res.success:
+        return res
+    return _closed_form(model, (goal,), model.middle() if q0 is None else model.clip(q0),
+                        options or IKOptions(), res, time.perf_counter() - res.time)
+
+
+def closed_form(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
+                options: IKOptions) -> IKResult | None:
+    """The second step of :func:`auto` alone: the closed form's answer, or ``None``.
+
+    ``None`` when no closed-form solver applies to the goals or the arm has no closed form;
+    else its answer as :func:`auto` would return it after a failed search (labelled
+    ``auto``, checked by :func:`armctl.ik.result.finish`; it may have failed too).
+    """
+    started = time.perf_counter()
+    analytic = _analytic(model, goals, options)
+    if analytic is None:
+        return None
+    goal = goals[0]
+    try:
+        closed = analytic(model, goals, q0, options, ())
+    except _no_closed_form():
+        _CLOSED_FORM[model][(goal.frame, type(goal))] = False
+        return None
+    _CLOSED_FORM[model][(goal.frame, type(goal))] = True
+    return finish(model, goals, closed.q, solver="auto", status=closed.status, iterations=0,
+                  restarts=0, started=started, message="closed form after the numerical "
+                  "search failed", avoid=options.avoid)
+
+
+def _closed_form(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: IKOptions,
+                 res: IKResult, started: float) -> IKResult:
+    """The second step of :func:`auto` after the numerical search ``res`` failed."""
     analytic = _analytic(model, goals, options)
     if analytic is None:
         return res

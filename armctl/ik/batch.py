@@ -4,7 +4,10 @@
 frames, weights and tolerances; different targets) and runs one numerical method over all of them
 inside one compiled loop. Whether each answer succeeded is decided afterwards from the forward
 kinematics of the returned ``q`` and the joint limits, vectorised over the batch, with the same
-criteria as :func:`armctl.ik.result.finish`. With a collision checker (``options.avoid``) the
+criteria as :func:`armctl.ik.result.finish`. Each problem runs as one call would (the same
+method, start, budgets and seed, so the same answer); with ``auto`` the problems the search did
+not solve then get the closed form where one applies, as a call does. With a collision checker
+(``options.avoid``) the
 answers are checked together (:meth:`armctl.collision.CollisionModel.free_batch`) and each one
 in contact is solved again on its own by :func:`armctl.ik.numerical.run_method`, which restarts
 until an answer is free (or reports ``COLLIDES``).
@@ -12,9 +15,13 @@ until an answer is free (or reports ``COLLIDES``).
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from itertools import pairwise
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -23,6 +30,7 @@ from armctl.errors import InputError
 from armctl.ik import _engine as E
 from armctl.ik._pack import goal_row, model_arrays, pack_goals, seed_state, wrap_continuous
 from armctl.ik._residual import goal_errors_many
+from armctl.ik.auto import closed_form
 from armctl.ik.goals import Goal, GoalLike, PoseGoal, Tolerance, as_goals
 from armctl.ik.nullspace import ns_arrays
 from armctl.ik.numerical import _METHODS, method_params, run_method
@@ -74,8 +82,59 @@ class IKBatchResult:
         return int(self.q.shape[0])
 
 
+class _PoseSets(Sequence[tuple[Goal, ...]]):
+    """The goal sets of an ``(N, 4, 4)`` pose array checked as a whole.
+
+    See :func:`_clean_poses`; each set's :class:`PoseGoal` is built when it is asked for.
+    """
+
+    def __init__(self, poses: Array, tolerance: Tolerance) -> None:
+        self.poses = poses
+        self.tolerance = tolerance
+        self.built: dict[int, tuple[Goal, ...]] = {}
+
+    def __len__(self) -> int:
+        return int(self.poses.shape[0])
+
+    def __getitem__(self, i: Any) -> Any:
+        if not isinstance(i, int):
+            return [self[k] for k in range(len(self))[i]]
+        got = self.built.get(i)
+        if got is None:
+            got = self.built[i] = (PoseGoal(self.poses[i], tolerance=self.tolerance),)
+        return got
+
+
+#: Largest |R R^T - I| entry of the poses that :func:`_clean_poses` packs itself: well below
+#: the limit under which a pose goal keeps its rotation as given (1e-12), so that round-off in
+#: the two computations cannot decide differently
+_CLEAN = 1e-13
+
+
+def _clean_poses(arr: Array) -> Array | None:
+    """The packed targets ``(N, 1, 18)`` of poses that a :class:`PoseGoal` takes as they are.
+
+    Every pose finite, with the last row ``0 0 0 1`` and a rotation within :data:`_CLEAN` of
+    orthonormal with ``det > 0``: the targets :meth:`PoseGoal.packed` gives, computed for all
+    at once. ``None`` when any pose is not like that (each then gets its :class:`PoseGoal`,
+    which repairs or refuses it).
+    """
+    if not (np.isfinite(arr).all() and (arr[:, 3, :] == (0.0, 0.0, 0.0, 1.0)).all()):
+        return None
+    rot = arr[:, :3, :3]
+    off = np.abs(rot @ rot.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
+    if not ((off <= _CLEAN).all() and (np.linalg.det(rot) > 0.0).all()):
+        return None
+    gd = np.zeros((arr.shape[0], 1, 18))
+    gd[:, 0, 0:3] = arr[:, :3, 3]
+    gd[:, 0, 3:12] = rot.reshape(-1, 9)
+    gd[:, 0, 17] = 1.0
+    return gd
+
+
 def _goal_sets(goals: npt.ArrayLike | Sequence[GoalLike],
-               tolerance: Tolerance | None) -> list[tuple[Goal, ...]]:
+               tolerance: Tolerance | None) -> tuple[Sequence[tuple[Goal, ...]], Array | None]:
+    """The goal sets, and their packed targets when a pose array gave them (else ``None``)."""
     arr = None
     if not (isinstance(goals, Sequence) and goals and isinstance(goals[0], (Goal, list, tuple))):
         arr = np.asarray(goals, dtype=float)
@@ -84,8 +143,24 @@ def _goal_sets(goals: npt.ArrayLike | Sequence[GoalLike],
             raise InputError(f"batch goals must be (N, 4, 4) poses or N goal sets; got an array "
                              f"of shape {arr.shape}")
         tol = tolerance or Tolerance()
-        return [(PoseGoal(p, tolerance=tol),) for p in arr]
-    return [as_goals(g, tolerance) for g in goals]  # type: ignore[union-attr]
+        gd = _clean_poses(arr) if arr.shape[0] else None
+        if gd is not None:
+            return _PoseSets(arr, tol), gd
+        return [(PoseGoal(p, tolerance=tol),) for p in arr], None
+    return [as_goals(g, tolerance) for g in goals], None  # type: ignore[union-attr]
+
+
+#: Problems per thread below which ``workers=None`` uses one thread
+_PER_THREAD = 128
+
+
+def _threads(workers: int | None, n: int) -> int:
+    """How many threads share ``n`` problems."""
+    if workers is None:
+        return max(1, min(os.cpu_count() or 1, n // _PER_THREAD))
+    if workers < 1:
+        raise InputError(f"workers must be at least 1, got {workers}")
+    return min(workers, max(n, 1))
 
 
 def batch_errors(model: KinematicModel, goals: Sequence[Goal], gd: Array,
@@ -117,10 +192,11 @@ def solve_batch(
     model: KinematicModel,
     goals: npt.ArrayLike | Sequence[GoalLike],
     q0: npt.ArrayLike | None = None,
-    solver: str = "dls",
+    solver: str = DEFAULT,
     *,
     options: IKOptions | None = None,
     tolerance: Tolerance | None = None,
+    workers: int | None = None,
 ) -> IKBatchResult:
     """Solve ``N`` IK problems in one compiled call.
 
@@ -130,11 +206,16 @@ def solve_batch(
             with the same types, frames, weights and tolerances.
         q0: Start ``(dof,)`` for all, ``(N, dof)`` per problem, or ``None`` for the middle of
             the ranges; clipped into the limits.
-        solver: ``dls`` (also for ``auto``), ``pinv``, ``jt``, ``ccd`` or ``ccd-jt``.
-        options: Budgets (``time_limit`` applies to each problem), seed (problem ``i`` uses a
-            generator derived from ``seed`` and ``i``), null-space criteria, collision checker
+        solver: ``auto`` (the default, as for one call: ``dls``, then the closed form for
+            the problems it did not solve, where one applies), ``dls``, ``pinv``, ``jt``,
+            ``ccd`` or ``ccd-jt``. Problem ``i`` gets the answer of
+            ``solve(model, goals[i], q0[i], solver, options=options)``, the time limit aside.
+        options: Budgets (``time_limit`` applies to each problem), seed (each problem's
+            generator starts as a call's does), null-space criteria, collision checker
             (``avoid``: success also requires an answer free of contact).
         tolerance: Tolerance of goals built from pose arrays.
+        workers: Threads that share the problems (each problem's answer does not depend on
+            it); ``None``: one per CPU for batches of at least 256 problems, else one.
 
     Returns:
         The results as arrays.
@@ -149,19 +230,20 @@ def solve_batch(
                          f"{', '.join(i.name for i in solver_infos() if i.capabilities.batch)}; "
                          f"got {solver!r}")
     method_name = "dls" if solver == DEFAULT else solver  # the default's first method
-    sets = _goal_sets(goals, tolerance)
+    sets, gd = _goal_sets(goals, tolerance)
     if not sets:
         raise InputError("solve_batch needs at least one goal set")
     first = sets[0]
     check_request(solver, first)
-    key = [(type(g), g.frame, g.weight, g.tolerance) for g in first]
-    for i, gs in enumerate(sets):
-        if [(type(g), g.frame, g.weight, g.tolerance) for g in gs] != key:
-            raise InputError(f"batch goal set {i} differs in structure from set 0 (goal types, "
-                             "frames, weights and tolerances must match)")
+    if gd is None:  # (a pose array's sets share their structure)
+        key = [(type(g), g.frame, g.weight, g.tolerance) for g in first]
+        for i, gs in enumerate(sets):
+            if [(type(g), g.frame, g.weight, g.tolerance) for g in gs] != key:
+                raise InputError(f"batch goal set {i} differs in structure from set 0 (goal "
+                                 "types, frames, weights and tolerances must match)")
+        gd = np.ascontiguousarray([[goal_row(g) for g in gs] for gs in sets], dtype=float)
     ga = pack_goals(model, first)
     n = len(sets)
-    gd = np.ascontiguousarray([[goal_row(g) for g in gs] for gs in sets], dtype=float)
     if q0 is None:
         starts = np.tile(model.middle(), (n, 1))
     else:
@@ -173,15 +255,28 @@ def solve_batch(
     starts = np.ascontiguousarray(starts)
     ma = model_arrays(model)
     method = _METHODS[method_name]
-    base = int(seed_state(options.seed)[0])
-    seeds = np.array([(base + 0xD1B54A32D192ED03 * (i + 1)) & (2**64 - 1) for i in range(n)],
-                     dtype=np.uint64)
+    # every problem starts its generator as a call with these options would (fresh entropy
+    # for each when the seed is None), so that problem i gets the answer of the call
+    # solve(model, sets[i], starts[i], solver, options=options)
+    seeds = (np.full(n, int(seed_state(options.seed)[0]), dtype=np.uint64)
+             if options.seed is not None else
+             np.array([int(seed_state(None)[0]) for _ in range(n)], dtype=np.uint64))
     q_out = np.full((n, model.dof), np.nan)  # a row stays NaN if no attempt had a finite error
     info = np.zeros((n, 4), dtype=np.int64)
     run = (method, method_params(model, method, options), options.max_iterations,
            options.restarts + 1, float(options.time_limit))
-    E.solve_batch(starts, ma.kernel, replace(ga, gd=gd).kernel, run,
-                  ns_arrays(model, options.nullspace), seeds, q_out, info)
+    ns = ns_arrays(model, options.nullspace)
+    threads = _threads(workers, n)
+    if threads == 1:
+        E.solve_batch(starts, ma.kernel, replace(ga, gd=gd).kernel, run, ns, seeds, q_out, info)
+    else:  # the compiled loop runs without the GIL: contiguous shares of the problems
+        cuts = np.linspace(0, n, threads + 1).astype(int).tolist()
+        with ThreadPoolExecutor(threads) as pool:
+            for job in [pool.submit(E.solve_batch, starts[a:b], ma.kernel,
+                                    replace(ga, gd=gd[a:b]).kernel, run, ns, seeds[a:b],
+                                    q_out[a:b], info[a:b])
+                        for a, b in pairwise(cuts)]:
+                job.result()
     q = np.array([wrap_continuous(row, ma.continuous) for row in q_out]) if ma.continuous.any() \
         else q_out
     failed = ~np.all(np.isfinite(q), axis=1)
@@ -192,7 +287,17 @@ def solve_batch(
     inside = np.all((q >= model.lower - 1e-9) & (q <= model.upper + 1e-9), axis=1)
     success = met & inside
     again: dict[int, IKStatus] = {}
-    if options.avoid is not None:
+    if options.avoid is None and solver == DEFAULT:
+        # what a call to ``auto`` does after its numerical search failed: the closed form,
+        # where one applies (the search itself ran above, as the call would run it)
+        for k in np.flatnonzero(~success).tolist():
+            res = closed_form(model, sets[k], starts[k], options)
+            if res is not None and res.success:
+                q[k], success[k], again[k] = res.q, True, res.status
+                dp[k], dr[k], inside[k], met[k] = (res.position_error, res.rotation_error,
+                                                   res.within_limits, True)
+                failed[k] = False
+    elif options.avoid is not None:
         for k in np.flatnonzero(success & ~options.avoid.free_batch(q)).tolist():
             res = run_method(method_name, model, sets[k], starts[k],
                              replace(options, seed=int(seeds[k])), ())

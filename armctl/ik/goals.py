@@ -95,6 +95,31 @@ _ROTATION_TOLERANCE = 1e-6
 _ORTHONORMAL = 1e-12
 
 
+class _CompiledChecks:
+    """Compiled forms of the goal checks, registered by the compiled solvers when they load.
+
+    A goal type checks its input in plain Python (this module imports no compiler); once the
+    compiled solvers are loaded (:mod:`armctl.ik._residual`), the common case of a check runs
+    in one compiled call instead. A compiled check only accepts: for any input it does not
+    accept as it is, the Python check runs as before (and raises, or repairs the input).
+
+    Attributes:
+        pose_row: ``(pose (4, 4), row (1, 18), orthonormal) -> bool``: True (and ``row`` filled
+            with the packed targets) when ``pose`` is finite, its last row is ``0 0 0 1`` and
+            its rotation has ``max |R R^T - I| <= orthonormal`` and ``det R > 0``.
+    """
+
+    pose_row: Any = None
+
+
+_COMPILED = _CompiledChecks()
+
+
+def use_compiled_checks(*, pose_row: Any) -> None:
+    """Register the compiled goal checks (see :class:`_CompiledChecks`)."""
+    _COMPILED.pose_row = pose_row
+
+
 def _finite(values: list[float]) -> bool:
     """Whether every number is finite (one sum; each number only when the sum is not finite)."""
     return math.isfinite(sum(values)) or all(math.isfinite(v) for v in values)
@@ -367,12 +392,12 @@ class Goal:
     weight: float = field(default=1.0, kw_only=True)
     tolerance: Tolerance = field(default=Tolerance(), kw_only=True)
 
-    #: Number of constrained task-space dimensions (2 to 6).
-    dof: int = field(default=0, init=False, repr=False)
+    #: Number of constrained task-space dimensions (2 to 6), a constant of the goal type.
+    dof: ClassVar[int] = 0
     #: Whether the goal constrains the position.
-    has_position: bool = field(default=False, init=False, repr=False)
+    has_position: ClassVar[bool] = False
     #: Whether the goal constrains (part of) the orientation.
-    has_rotation: bool = field(default=False, init=False, repr=False)
+    has_rotation: ClassVar[bool] = False
 
     #: The kind: the code of its residual and Jacobian in the compiled kernels.
     kind: ClassVar[GoalKind]
@@ -431,6 +456,18 @@ class Goal:
         :mod:`armctl.ik._residual`; the kernel branch of :attr:`kind` reads them.
         """
         raise NotImplementedError
+
+    def packed_row(self) -> Array:
+        """:meth:`packed` as a ``(1, 18)`` array that the goal keeps: read it, never write it.
+
+        Built on first use (or while the goal is checked) and kept, so the compiled solvers
+        take a goal's targets without building them again.
+        """
+        row = self.__dict__.get("_row")
+        if row is None:
+            row = np.array(self.packed(), dtype=float).reshape(1, 18)
+            object.__setattr__(self, "_row", row)
+        return row
 
     # ---- the NLP -----------------------------------------------------------------------------
     def nlp_params(self) -> Array:
@@ -511,6 +548,8 @@ class PositionGoal(Goal):
     position: Array
 
     kind: ClassVar[GoalKind] = GoalKind.POSITION
+    dof: ClassVar[int] = 3
+    has_position: ClassVar[bool] = True
     label: ClassVar[str] = "position"
     file_type: ClassVar[str] = "position"
     file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (("position",), ())
@@ -518,8 +557,6 @@ class PositionGoal(Goal):
     def __post_init__(self) -> None:
         super().__post_init__()
         object.__setattr__(self, "position", as_vec3(self.position, "goal position"))
-        object.__setattr__(self, "dof", 3)
-        object.__setattr__(self, "has_position", True)
 
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
         m = np.asarray(pose).tolist()
@@ -570,6 +607,8 @@ class OrientationGoal(Goal):
     rotation: Array
 
     kind: ClassVar[GoalKind] = GoalKind.ORIENTATION
+    dof: ClassVar[int] = 3
+    has_rotation: ClassVar[bool] = True
     label: ClassVar[str] = "orientation"
     file_type: ClassVar[str] = "orientation"
     file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (("rpy",), ())
@@ -577,8 +616,6 @@ class OrientationGoal(Goal):
     def __post_init__(self) -> None:
         super().__post_init__()
         object.__setattr__(self, "rotation", _rotation(self.rotation, "goal rotation"))
-        object.__setattr__(self, "dof", 3)
-        object.__setattr__(self, "has_rotation", True)
 
     @classmethod
     def from_axes(cls, x_axis: npt.ArrayLike, z_axis: npt.ArrayLike, *, frame: str | None = None,
@@ -645,6 +682,9 @@ class DirectionGoal(Goal):
     axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 
     kind: ClassVar[GoalKind] = GoalKind.DIRECTION
+    dof: ClassVar[int] = 5
+    has_position: ClassVar[bool] = True
+    has_rotation: ClassVar[bool] = True
     label: ClassVar[str] = "position + direction"
     file_type: ClassVar[str] = "direction"
     file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (
@@ -660,9 +700,6 @@ class DirectionGoal(Goal):
         object.__setattr__(self, "position", as_vec3(self.position, "goal position"))
         object.__setattr__(self, "direction", as_unit3(self.direction, "goal direction"))
         object.__setattr__(self, "axis", as_unit3(self.axis, "tool axis"))
-        object.__setattr__(self, "dof", 5)
-        object.__setattr__(self, "has_position", True)
-        object.__setattr__(self, "has_rotation", True)
 
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
         m = np.asarray(pose).tolist()
@@ -732,15 +769,27 @@ class PoseGoal(Goal):
     pose: Array
 
     kind: ClassVar[GoalKind] = GoalKind.POSE
+    dof: ClassVar[int] = 6
+    has_position: ClassVar[bool] = True
+    has_rotation: ClassVar[bool] = True
     label: ClassVar[str] = "pose"
     file_type: ClassVar[str] = "pose"
     file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (("position", "rpy"), ())
 
     def __post_init__(self) -> None:
-        super().__post_init__()
+        if not self.weight > 0:  # Goal.__post_init__, written out (a call costs as much)
+            super().__post_init__()
         arr = np.array(self.pose, dtype=float)
         if arr.shape != (4, 4):
             raise InputError(f"a pose goal needs a 4x4 transform, got shape {arr.shape}")
+        check = _COMPILED.pose_row
+        if check is not None:  # the common case in one compiled call; any other as below
+            row = np.empty((1, 18))
+            if check(arr, row, _ORTHONORMAL):
+                arr.setflags(write=False)
+                object.__setattr__(self, "pose", arr)
+                object.__setattr__(self, "_row", row)
+                return
         rows = arr.tolist()
         if not _finite(rows[0] + rows[1] + rows[2]):
             raise InputError(f"a pose goal needs a 4x4 transform of finite numbers, got {rows}")
@@ -750,9 +799,6 @@ class PoseGoal(Goal):
             arr[3] = (0.0, 0.0, 0.0, 1.0)  # the last row of a transform, whatever was given
         arr.setflags(write=False)
         object.__setattr__(self, "pose", arr)
-        object.__setattr__(self, "dof", 6)
-        object.__setattr__(self, "has_position", True)
-        object.__setattr__(self, "has_rotation", True)
 
     @property
     def position(self) -> Array:
@@ -775,6 +821,9 @@ class PoseGoal(Goal):
         return self.pose[:3, 3]
 
     def packed(self) -> Array:  # noqa: D102
+        row = self.__dict__.get("_row")
+        if row is not None:
+            return np.array(row[0])
         r0, r1, r2, _ = self.pose.tolist()
         return np.array([r0[3], r1[3], r2[3], r0[0], r0[1], r0[2], r1[0], r1[1], r1[2],
                          r2[0], r2[1], r2[2], 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
@@ -834,6 +883,8 @@ class LookAtGoal(Goal):
     axis: Array = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 
     kind: ClassVar[GoalKind] = GoalKind.LOOK_AT
+    dof: ClassVar[int] = 2
+    has_rotation: ClassVar[bool] = True
     label: ClassVar[str] = "look-at"
     file_type: ClassVar[str] = "look_at"
     file_keys: ClassVar[tuple[tuple[str, ...], tuple[str, ...]]] = (("point",), ("axis",))
@@ -850,8 +901,6 @@ class LookAtGoal(Goal):
         super().__post_init__()
         object.__setattr__(self, "point", as_vec3(self.point, "look-at point"))
         object.__setattr__(self, "axis", as_unit3(self.axis, "tool axis"))
-        object.__setattr__(self, "dof", 2)
-        object.__setattr__(self, "has_rotation", True)
 
     def errors(self, pose: npt.ArrayLike) -> tuple[float, float]:  # noqa: D102
         m = np.asarray(pose).tolist()

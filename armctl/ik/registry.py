@@ -257,6 +257,12 @@ def solve(
         UnsupportedGoalError: For goals or constraints the solver cannot take (naming those that
             can).
     """
+    if avoid is None and not constraints and isinstance(goal, Goal):
+        short = _SHORT[solver]
+        if short is not None:  # one goal, a numerical method: the same checks, done once
+            res = short(model, goal, q0, options)
+            if res is not None:
+                return res
     goals = as_goals(goal)
     for g in goals:
         model.frame_index(g.frame)  # unknown frames fail before any work
@@ -274,3 +280,40 @@ def solve(
 
 
 _DEFAULT_OPTIONS = IKOptions()  # frozen: one instance serves every call without options
+
+
+def _short_path(solver: str) -> Any:
+    """The short path of a solver for one goal (see :class:`_ShortPaths`).
+
+    Loaded as :func:`get_solver` loads solvers, by name (the solvers import this module).
+    """
+    if solver == DEFAULT:
+        return importlib.import_module("armctl.ik.auto").auto_goal
+    solve_goal = importlib.import_module("armctl.ik.numerical").solve_goal
+
+    def short(model: KinematicModel, goal: Goal, q0: Any, options: IKOptions | None) -> Any:
+        return solve_goal(solver, model, goal, q0, options, solver)
+
+    return short
+
+
+class _ShortPaths(dict[str, Any]):
+    """Solver name -> its short path for one goal without constraints, loaded on first use.
+
+    ``auto`` and the numerical methods solve one goal with one compiled call that also checks
+    the answer (:func:`armctl.ik.numerical.solve_goal`); the others have none (``None``).
+    """
+
+    def __missing__(self, solver: str) -> Any:
+        if solver not in _SOLVERS:
+            return None  # the full path names the registered solvers
+        fn = _short_path(solver) if solver in _NUMERICAL else None
+        self[solver] = fn
+        return fn
+
+
+#: The solvers with a short path: ``auto`` and the numerical methods.
+_NUMERICAL = frozenset({"auto", "dls", "pinv", "jt", "ccd", "ccd-jt"})
+
+
+_SHORT = _ShortPaths()

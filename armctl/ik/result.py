@@ -14,7 +14,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from armctl.collision.model import CollisionModel
 
 __all__ = ["CheckedConstraint", "ConstraintViolation", "GoalResidual", "IKResult", "IKStatus",
-           "evaluate", "finish"]
+           "converged", "evaluate", "finish"]
 
 
 class IKStatus(Enum):
@@ -148,6 +148,81 @@ class IKResult:
     message: str = ""
     constraint_errors: tuple[ConstraintViolation, ...] = ()
     contact: Contact | None = None
+
+
+class _OnFirstRead:
+    """A field of :class:`IKResult` that a result built by :func:`converged` fills when read.
+
+    :func:`converged` builds a result without running the dataclass ``__init__`` and leaves out
+    the fields that cost more to build than the whole solve (the summary text and the per-goal
+    records); the first read computes the value from the numbers kept in ``_pending`` and
+    stores it in the instance, so the result reads, compares and prints as any other. Results
+    built by ``__init__`` always hold every field and never reach this.
+    """
+
+    def __init__(self, name: str, default: object) -> None:
+        self.name = name
+        self.default = default
+
+    def __get__(self, obj: object, owner: type | None = None) -> object:
+        if obj is None:
+            return self.default  # the class attribute, as the dataclass left it
+        d = obj.__dict__
+        if self.name not in d:
+            _fill_pending(d)
+        return d[self.name]
+
+
+def _fill_pending(d: dict[str, Any]) -> None:
+    """Compute the fields :func:`converged` left out, from ``d["_pending"]``."""
+    tool, goals, errs, note = d["_pending"]
+    solver, dp, dr = d["solver"], d["position_error"], d["rotation_error"]
+    d.setdefault("goal_errors", tuple([
+        GoalResidual(g.frame or tool, e[0], e[1], True) for g, e in zip(goals, errs, strict=True)]))
+    d.setdefault("message", f"{solver}: converged; position error {dp:.3g} m, rotation error "
+                            f"{dr:.3g} rad" + (f"; {note}" if note else ""))
+
+
+IKResult.goal_errors = _OnFirstRead("goal_errors", None)  # type: ignore[assignment]
+IKResult.message = _OnFirstRead("message", "")  # type: ignore[assignment]
+
+_new = object.__new__
+_set = object.__setattr__
+
+
+def converged(tool: str, goals: tuple[Goal, ...], q: Array, errs: Sequence[Sequence[float]],
+              position_error: float, rotation_error: float, *, solver: str, iterations: int,
+              restarts: int, started: float, note: str = "") -> IKResult:
+    """The result of an answer already checked to meet every goal inside the limits.
+
+    For solvers whose compiled core checks its own answer the way :func:`finish` does (forward
+    kinematics of ``q``, every goal's error within its tolerance, ``q`` finite and inside the
+    limits with 1e-9 of slack; :func:`armctl.ik._engine.solve_checked`): the same result
+    :func:`finish` would build, without checking again. Anything not checked that way goes
+    through :func:`finish`.
+
+    Args:
+        tool: The arm's tool frame (the frame of goals that name none).
+        goals: The goals.
+        q: The answer ``(dof,)``; made read-only and kept (not copied).
+        errs: Per goal, its position [m] and rotation [rad] error at ``q``.
+        position_error: The largest position error [m].
+        rotation_error: The largest rotation error [rad].
+        solver: The solver's name.
+        iterations: Iterations used.
+        restarts: Restarts used.
+        started: ``time.perf_counter()`` at the start of the solve.
+        note: Extra text for the summary.
+    """
+    q.setflags(write=False)
+    res = _new(IKResult)
+    _set(res, "__dict__", {
+        "q": q, "success": True, "status": IKStatus.CONVERGED, "solver": solver,
+        "iterations": iterations, "restarts": restarts, "position_error": position_error,
+        "rotation_error": rotation_error, "within_limits": True,
+        "time": time.perf_counter() - started, "_pending": (tool, goals, errs, note)})
+    # constraint_errors and contact: the class's defaults, () and None
+    return res
 
 
 def evaluate(model: KinematicModel, goals: tuple[Goal, ...],

@@ -27,6 +27,7 @@ from armctl.render.draw import (
     View,
     cameras_for,
     draw_target,
+    fit_labels,
     setup_axes,
 )
 from armctl.render.errors import MissingToolError, OutputError
@@ -237,7 +238,8 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
             ax.plot(lp[:, 0], lp[:, 1], lp[:, 2], color="black", linestyle="--", linewidth=1.0,
                     zorder=8)
         artists.append((ArmArtist(ax, geo), triads, trail_line))
-    label = fig.suptitle("", fontsize=9)
+    label = fig.suptitle(" ", fontsize=9)  # its room is kept by the layout below
+    fit_labels(fig, axes)
     head = title if title is not None else arm.name
     canvas = fig.canvas
     images: list[Any] = []  # GIF frames, reduced to a palette at once to keep memory small

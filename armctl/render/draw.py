@@ -19,6 +19,9 @@ from armctl.render.binding import BoundGeometry
 from armctl.typing import Array
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from matplotlib.figure import Figure
     from mpl_toolkits.mplot3d import Axes3D
 
 __all__ = [
@@ -30,6 +33,7 @@ __all__ = [
     "cameras_for",
     "draw_path",
     "draw_target",
+    "fit_labels",
     "point_to_polyline",
     "setup_axes",
 ]
@@ -134,6 +138,38 @@ def setup_axes(ax: Axes3D, bounds: Bounds, camera: Camera, *, title: bool = True
     ax.computed_zorder = False
     if title:
         ax.set_title(camera.name, fontsize=9)
+
+
+#: Room [px] kept between a panel's labels and the figure's edge.
+_EDGE = 3.0
+
+
+def fit_labels(fig: Figure, axes: Sequence[Axes3D]) -> None:
+    """Shrink the 3-D panels whose axis labels would reach past the figure's edge.
+
+    A 3-D panel draws its axis labels outside the cube, and the layout does not always leave
+    room for them (the z label of the iso view falls off the right edge). Each such panel's
+    cube is scaled down about its centre just enough to bring every label inside.
+    """
+    fig.draw_without_rendering()  # lays the figure out and places the labels
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    width, height = fig.bbox.width, fig.bbox.height
+    for ax in axes:
+        cx, cy = ax.bbox.x0 + ax.bbox.width / 2.0, ax.bbox.y0 + ax.bbox.height / 2.0
+        scale = 1.0
+        for text in (ax.xaxis.label, ax.yaxis.label, ax.zaxis.label):  # outside the ticks
+            if not text.get_visible() or not text.get_text():
+                continue
+            box = text.get_window_extent(renderer)
+            for far, centre, lo, hi in ((box.x0, cx, _EDGE, width - _EDGE),
+                                        (box.x1, cx, _EDGE, width - _EDGE),
+                                        (box.y0, cy, _EDGE, height - _EDGE),
+                                        (box.y1, cy, _EDGE, height - _EDGE)):
+                edge = hi if far > hi else lo if far < lo else None
+                if edge is not None and abs(far - centre) > 1e-6:
+                    scale = min(scale, (edge - centre) / (far - centre))
+        if scale < 1.0:
+            ax.set_box_aspect((1.0, 1.0, 1.0), zoom=max(0.5, 0.97 * scale))
 
 
 def _link_colors(geometry: BoundGeometry, highlight: Mapping[str, str] | None = None) -> Array:

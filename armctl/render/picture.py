@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +22,7 @@ from armctl.render.draw import (
     cameras_for,
     draw_path,
     draw_target,
+    fit_labels,
     point_to_polyline,
     setup_axes,
 )
@@ -40,6 +42,7 @@ __all__ = [
     "PosePicture",
     "Target",
     "panel_figure",
+    "pose_title",
     "render_path",
     "render_pose",
     "resolve_frames",
@@ -122,6 +125,30 @@ def resolve_frames(arm: KinematicModel, names: Sequence[str]) -> tuple[str, ...]
     return tuple(dict.fromkeys(out))
 
 
+def pose_title(arm: KinematicModel, q: npt.ArrayLike, deg: bool = False) -> str:
+    """The arm's name and joint values, with their units, for a picture's title.
+
+    Args:
+        arm: The arm.
+        q: Joint values ``(dof,)`` [rad] / [m].
+        deg: Rotary joints in degrees (else radians); prismatic joints are in metres.
+    """
+    from armctl.config.schema import JointType
+
+    qv = arm.as_q(q)
+    prismatic = [t is JointType.PRISMATIC for t in arm.joint_types]
+    unit = "deg" if deg else "rad"
+    if all(prismatic):
+        return f"{arm.name}  q = [{', '.join(f'{v:.3f}' for v in qv)}] m"
+    values = []
+    for v, slides in zip(qv, prismatic, strict=True):
+        if slides:  # a gripper finger among rotary joints: its own unit
+            values.append(f"{v:.3f} m")
+        else:
+            values.append(f"{math.degrees(v):.1f}" if deg else f"{v:.3f}")
+    return f"{arm.name}  q = [{', '.join(values)}] {unit}"
+
+
 def triad_length(bounds: Bounds) -> float:
     """Length [m] of frame triads in a picture showing ``bounds``."""
     return 0.18 * bounds.half
@@ -194,8 +221,8 @@ def render_pose(arm: KinematicModel, q: npt.ArrayLike, out_path: str | Path, *,
                 poses[arm.frame_index(name)])
         if target is not None:
             draw_target(ax, target.pose, length, target.oriented)
-    fig.suptitle(title if title is not None else
-                 f"{arm.name}  q = [{', '.join(f'{v:.3f}' for v in qv)}]", fontsize=9)
+    fig.suptitle(title if title is not None else pose_title(arm, qv), fontsize=9)
+    fit_labels(fig, axes)
     save_figure(fig, out)
     tool = arm.fk(qv)[:3, 3]
     dist = None if target is None else float(np.linalg.norm(tool - target.pose[:3, 3]))
@@ -256,6 +283,7 @@ def render_path(arm: KinematicModel, qs: npt.ArrayLike, out_path: str | Path, *,
             draw_target(ax, target.pose, triad_length(bounds), target.oriented)
     axes[0].legend(fontsize=7, loc="upper left")
     fig.suptitle(title or f"{arm.name}: path with {len(q)} IK samples", fontsize=9)
+    fit_labels(fig, axes)
     save_figure(fig, out)
     dev = None if line is None else float(point_to_polyline(tool_pts, line).max())
     return PathPicture(out, len(q), dev)

@@ -9,14 +9,17 @@ arm moved by hand.
 
 from armctl.robot.errors import MotionStopped, SignalInterrupt, StopReason
 from armctl.robot.executor import CycleInfo, Executor, StreamResult, StreamStats
+from armctl.robot.motion_control import ControlState, MotionControl
 from armctl.robot.session import MoveReport, Robot
 from armctl.robot.stop import STOP_SIGNALS, SignalGuard, StopRequest, signals_stop
 from armctl.robot.teleop import Teleop, TeleopOptions
 
 __all__ = [
     "STOP_SIGNALS",
+    "ControlState",
     "CycleInfo",
     "Executor",
+    "MotionControl",
     "MotionStopped",
     "MoveReport",
     "Robot",

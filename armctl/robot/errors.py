@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from enum import Enum
 
-from armctl.errors import InputError, JointLimitError, MotionAborted, json_safe
+from armctl.errors import ArmctlError, InputError, JointLimitError, MotionAborted, json_safe
 
-__all__ = ["JointValueError", "MotionStopped", "SignalInterrupt", "StopReason"]
+__all__ = ["JointValueError", "LiveStateError", "MotionStopped", "OwnerGone", "SignalInterrupt",
+           "StopReason"]
 
 
 class StopReason(Enum):
@@ -117,3 +118,14 @@ class JointValueError(JointLimitError):
         self.upper = upper
         InputError.__init__(self, message,
                             {"joint": joint, "value": value, "lower": lower, "upper": upper})
+
+
+class LiveStateError(ArmctlError):
+    """The live state of a port's owner cannot be published or read (the message says why)."""
+
+
+class OwnerGone(LiveStateError):
+    """The port's owner closed the port or exited: the watch is over.
+
+    ``details``: ``pid`` of the owner.
+    """

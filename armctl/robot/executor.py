@@ -12,6 +12,11 @@ callback), a servo alarm, a servo that stops answering, or a tracking error abov
 plans a jerk-limited stop from the commanded state, streams it, and holds the final position with
 torque on. A second stop request during that deceleration holds at once: the goal becomes the
 present reading.
+
+With a :class:`~armctl.robot.motion_control.MotionControl`, the planned time of a cycle is no
+longer ``k / rate``: it advances at the rate the control asks for (pause, resume, speed
+override), changed smoothly within the joint limits by time scaling along the plan
+(:mod:`armctl.robot.time_scaling`); the path stays the plan's.
 """
 
 from __future__ import annotations
@@ -32,7 +37,9 @@ from armctl.errors import ArmctlError, BusError
 from armctl.kinematics.model import KinematicModel
 from armctl.motion import MotionLimits, MotionPlan, Trajectory, stop_trajectory
 from armctl.robot.errors import MotionStopped, StopReason
+from armctl.robot.motion_control import MotionControl
 from armctl.robot.stop import StopRequest, signals_stop
+from armctl.robot.time_scaling import PlanTable, RateFollower
 from armctl.servo.errors import PortIOError, ServoAlarmError
 from armctl.typing import Array
 
@@ -106,12 +113,17 @@ class CycleInfo:
     """What one cycle did, for progress displays.
 
     Attributes:
-        t: Planned time of the cycle [s].
+        t: Planned time of the cycle [s]: where along the plan the command is (it stands
+            still while the motion is paused).
         duration: Planned duration of the whole motion [s].
         command: Goal positions sent, bus joint order.
         measured: Positions read back.
         tracking_error: Largest |measured - previous command| [rad]/[m].
         stopping: Whether a stop is under way.
+        elapsed: Time since the first cycle on the executor's clock [s].
+        rate: How fast the plan's time advances now [-] (1: as planned, 0: held).
+        paused: Whether a pause is asked for (:class:`~armctl.robot.motion_control.MotionControl`).
+        speed: The speed override the motion heads for [-] (capped to what the plan allows).
     """
 
     t: float
@@ -120,6 +132,10 @@ class CycleInfo:
     measured: Array
     tracking_error: float
     stopping: bool
+    elapsed: float = 0.0
+    rate: float = 1.0
+    paused: bool = False
+    speed: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -140,6 +156,7 @@ class StreamStats:
             every joint within its arrival tolerance and at rest for the settle dwell [s].
         retries: Failed bus attempts (missing, corrupt or late replies, each retried) per
             servo id during the motion; only servos with any.
+        held_time: Time the motion spent paused at rest [s].
     """
 
     rate_hz: float
@@ -153,6 +170,7 @@ class StreamStats:
     max_tracking_error: Array
     settle_time: float
     retries: Mapping[int, int] = field(default_factory=dict)
+    held_time: float = 0.0
 
     @property
     def achieved_rate(self) -> float:
@@ -167,9 +185,11 @@ class StreamResult:
     Attributes:
         stats: Timing and tracking figures.
         final: Measured joint values at the end, full arm vector ``(dof,)`` [rad]/[m].
-        log_t: Planned time of each cycle (only with ``record=True``).
+        log_t: Planned time of each cycle (only with ``record=True``) [s].
         log_cmd: Commands ``(N, n_bus)`` (only with ``record=True``).
         log_meas: Measurements ``(N, n_bus)`` (only with ``record=True``).
+        log_elapsed: Time of each cycle since the first on the executor's clock (only with
+            ``record=True``) [s]; it runs on while a paused motion's planned time stands still.
     """
 
     stats: StreamStats
@@ -177,6 +197,7 @@ class StreamResult:
     log_t: Array = field(default_factory=lambda: np.zeros(0))
     log_cmd: Array = field(default_factory=lambda: np.zeros((0, 0)))
     log_meas: Array = field(default_factory=lambda: np.zeros((0, 0)))
+    log_elapsed: Array = field(default_factory=lambda: np.zeros(0))
 
 
 class _Abort(ArmctlError):
@@ -339,12 +360,19 @@ class Executor:
     # ---- the loop --------------------------------------------------------------------------
     def run(self, plan: MotionPlan, stop: StopRequest | None = None,
             on_cycle: Callable[[CycleInfo], None] | None = None,
-            record: bool = False) -> StreamResult:
+            record: bool = False, control: MotionControl | None = None) -> StreamResult:
         """Stream a plan; return when the servos have settled at its end.
 
         While it runs (in the main thread), SIGINT, SIGTERM and SIGHUP are routed to ``stop``
         (:func:`~armctl.robot.stop.signals_stop`): the first decelerates and holds, a second
         holds at once.
+
+        With a ``control``, the plan is followed by time scaling along its path
+        (:mod:`armctl.robot.time_scaling`): a pause decelerates to a stop on the path and holds
+        there (still reading the servos and watching for faults), a resume or a speed change
+        changes pace, each within the joints' velocity, acceleration and jerk limits; a stop
+        starts from the commanded state as scaled. A pause too close to the plan's end lets
+        the plan finish.
 
         Args:
             plan: A checked plan starting at the present position.
@@ -353,6 +381,8 @@ class Executor:
                 raises is a stop request; another exception stops the arm the same way and is
                 raised again once the arm holds.
             record: Keep every command and measurement in the result.
+            control: Pause, resume, speed override and stop from other threads (``None``: the
+                plan runs as timed).
 
         Returns:
             Timing and tracking figures and the final measured position.
@@ -367,14 +397,30 @@ class Executor:
         stop = stop or StopRequest()
         if self.last_command is None:  # nothing commanded yet: torque on, holding, first
             self.hold()
-        with signals_stop(stop):
-            result = self._stream(plan, stop, on_cycle, record)
+        if control is not None:
+            control.begin(stop)
+        try:
+            with signals_stop(stop):
+                result = self._stream(plan, stop, on_cycle, record, control)
+        finally:
+            if control is not None:
+                control.end()
         if stop.requested:  # between the settled end and the handlers' restoring
             raise self._stopped_at_goal(plan, stop)
         return result
 
+    def _follower(self, traj: Trajectory, control: MotionControl | None,
+                  dt: float) -> RateFollower:
+        """The plan's time as the control wants it (at rate 1 without a control)."""
+        if control is None:
+            return RateFollower(None, 1.0, dt)
+        table = PlanTable.of(traj, self.limits)
+        control.set_cap(table.cap)
+        return RateFollower(table, control.wanted(), min(dt, 0.01))
+
     def _stream(self, plan: MotionPlan, stop: StopRequest,
-                on_cycle: Callable[[CycleInfo], None] | None, record: bool) -> StreamResult:
+                on_cycle: Callable[[CycleInfo], None] | None, record: bool,
+                control: MotionControl | None = None) -> StreamResult:
         """The loop of :meth:`run` (signals already routed to ``stop``)."""
         traj: Trajectory = plan.trajectory
         dt = 1.0 / self.rate_hz
@@ -384,11 +430,16 @@ class Executor:
         log_t: list[float] = []
         log_c: list[Array] = []
         log_m: list[Array] = []
+        log_e: list[float] = []
         self.last_log = (log_t, log_c, log_m)
         worst = np.zeros(self.idx.size)
         prev_cmd: Array | None = None
         overruns = 0
-        stopping: tuple[Trajectory, float] | None = None
+        follower = self._follower(traj, control, dt)
+        s = rate = rate_d = 0.0  # the plan's time [s], its rate [-] and rate's rate [1/s]
+        held_cycles = 0  # cycles paused at rest
+        # a stop under way: its trajectory, and the loop time and plan time it began at
+        stopping: tuple[Trajectory, float, float] | None = None
         abort: _Abort | None = None
         blind = False  # after a lost servo: keep writing, stop reading
         missed_reads = 0
@@ -418,20 +469,28 @@ class Executor:
                 self._freeze(blind)
                 frozen = True
                 break
+            if stopping is None:
+                s, rate, rate_d, _ = follower.follow(t, control.wanted() if control else 1.0)
+                if control is not None:
+                    control.report(rate)
             if stopping is None and (stop.requested or abort is not None):
                 if abort is None:
                     abort = _Abort(StopReason.USER, f"stopped by {stop.reason}")
                     logger.warning("%s: decelerating within the joint limits, then holding "
                                    "(a second one holds at once)", stop.reason)
-                q, qd, qdd = traj.sample(min(t, traj.duration))
-                stopping = (stop_trajectory(q, qd, qdd, self.limits), min(t, traj.duration))
+                s = min(s, traj.duration)
+                q, qd, qdd = traj.sample(s)  # the commanded state, as time-scaled
+                stopping = (stop_trajectory(q, qd * rate, qdd * rate**2 + qd * rate_d,
+                                            self.limits), t, s)
             if stopping is not None:
-                s_traj, s_t0 = stopping
+                s_traj, s_t0, s_at = stopping
                 q_full = s_traj.sample(t - s_t0)[0]
                 finished = t - s_t0 >= s_traj.duration
+                s = s_at + (t - s_t0)
             else:
-                q_full = traj.sample(t)[0]
-                finished = t >= traj.duration
+                q_full = traj.sample(s)[0]
+                finished = s >= traj.duration
+                held_cycles += rate == 0.0
             try:
                 cmd = self._write(q_full, skip_alarmed=stopping is not None)
                 meas = self._read() if not blind else cmd
@@ -456,9 +515,10 @@ class Executor:
             worst = np.maximum(worst, err)
             prev_cmd = cmd
             if record:
-                log_t.append(t)
+                log_t.append(s)
                 log_c.append(cmd)
                 log_m.append(meas)
+                log_e.append(t)
             if stopping is None and not blind and float(np.max(err, initial=0.0)) > \
                     self.max_tracking_error:
                 j = int(np.argmax(err))
@@ -470,8 +530,12 @@ class Executor:
                                name, self._servo_id(name))
             if on_cycle is not None:
                 try:
-                    on_cycle(CycleInfo(t, traj.duration, cmd, meas,
-                                       float(np.max(err, initial=0.0)), stopping is not None))
+                    now = control.state() if control is not None else None
+                    on_cycle(CycleInfo(s, traj.duration, cmd, meas,
+                                       float(np.max(err, initial=0.0)), stopping is not None,
+                                       t, rate if stopping is None else 0.0,
+                                       now.paused if now is not None else False,
+                                       now.applied if now is not None else 1.0))
                 except BaseException as exc:  # Ctrl-C, or an error in the caller's callback
                     if isinstance(exc, KeyboardInterrupt):
                         if not stop.requested:  # once per motion: never a second request
@@ -492,7 +556,7 @@ class Executor:
             if finished and stopping is not None:
                 break
         elapsed = last_start - t0
-        t_stop = stopping[1] if stopping is not None else min(k * dt, traj.duration)
+        t_stop = stopping[2] if stopping is not None else min(s, traj.duration)
         settle = 0.0
         final_cmd = self.last_command if self.last_command is not None else np.zeros(0)
         meas_final = final_cmd
@@ -513,7 +577,8 @@ class Executor:
             jitter_mean=float(jit.mean()), jitter_p99=float(np.percentile(jit, 99)),
             jitter_max=float(jit.max()), overruns=overruns,
             io_time_mean=float(np.mean(io)) if io else math.nan, max_tracking_error=worst,
-            settle_time=settle, retries=self._retries_since(retries0, len(jitter)))
+            settle_time=settle, retries=self._retries_since(retries0, len(jitter)),
+            held_time=held_cycles * dt)
         final = plan.trajectory.end.copy()
         final[self.idx] = meas_final
         if abort is not None:
@@ -533,7 +598,8 @@ class Executor:
                                 abort.servo_id, held, t_stop,
                                 stop.signum if abort.reason is StopReason.USER else None
                                 ) from failure
-        return StreamResult(stats, final, np.array(log_t), np.array(log_c), np.array(log_m))
+        return StreamResult(stats, final, np.array(log_t), np.array(log_c), np.array(log_m),
+                            np.array(log_e))
 
     def _settle(self, goal: Array, plan: MotionPlan, at: float, require: bool = True,
                 stop: StopRequest | None = None) -> tuple[float, Array]:

@@ -47,11 +47,14 @@ from armctl.motion.detour import DetourOptions, Planner, plan_detour
 from armctl.motion.errors import LimitViolation
 from armctl.robot.errors import MotionStopped
 from armctl.robot.executor import CycleInfo, Executor, JointBus, StreamResult
+from armctl.robot.live_state import Activity
+from armctl.robot.motion_control import MotionControl
 from armctl.robot.stop import StopRequest
 from armctl.robot.unreachable import unreachable
 from armctl.typing import Array
 
 if TYPE_CHECKING:
+    from armctl.robot.live_publisher import LivePublisher
     from armctl.servo.calibration import Calibration
     from armctl.servo.effective_limits import EffectiveLimits
 
@@ -144,6 +147,9 @@ class Robot:
                                  self.motion.max_tracking_error,
                                  explain_short=self._short_cause, clock=self.clock)
         self.stop = StopRequest()
+        #: Pause, resume, speed override and stop of every motion this robot streams, from any
+        #: thread (see :mod:`armctl.robot.motion_control`).
+        self.control = MotionControl()
         #: Called after every streamed motion, also one that ended in a stop or a failure, with
         #: its cycles ``(t [s], commands, measurements)`` (bus joint order, [rad]/[m]); setting
         #: it makes every motion record its cycles (e.g. for a motion log file).
@@ -163,13 +169,19 @@ class Robot:
         self._q = np.clip(np.zeros(arm.dof), self.arm.lower, self.arm.upper)
         self._closed = False
         self._owns_bus = False
+        #: Serves this robot's live state to other processes (``armctl status``/``view`` on the
+        #: same port; see :mod:`armctl.robot.live_publisher`): started by :meth:`open` on a
+        #: real port (a device or an ``armctl sim`` pty), ``None`` on the built-in simulated bus.
+        self.live: LivePublisher | None = None
+        self._activity: Activity | None = None  # what streamed plans are, for watchers
 
     # ---- life cycle -------------------------------------------------------------------------
     @classmethod
     def open(cls, config: str | Path | Arm, *, speed: float | None = None,
              exit_policy: ExitPolicy | None = None, hold: bool = True,
              clock: Clock | None = None, port: str | None = None, sim: bool = False,
-             scene: SceneSpec | None = None, collisions: bool = True) -> Robot:
+             scene: SceneSpec | None = None, collisions: bool = True,
+             publish: bool = True) -> Robot:
         """Load an arm, open its bus and hold the present pose with torque on.
 
         Args:
@@ -188,6 +200,8 @@ class Robot:
                 (one simulated servo per joint, see :mod:`armctl.robot.bus_choice`).
             scene: The scene plans are checked against (default: the arm's).
             collisions: Check plans for contacts (default on).
+            publish: On a real port, serve the robot's live state to watching processes
+                (:attr:`live`).
 
         Raises:
             InputError: Both ``port`` and ``sim``, or ``port`` for an arm without a ``bus:``
@@ -205,14 +219,19 @@ class Robot:
         calibration = _calibration(arm)
         clock = clock if clock is not None else default_clock()
         bus = ArmBus.from_spec(arm.spec, calibration, clock=clock).open()
+        robot: Robot | None = None
         try:
             robot = cls(arm, bus, speed=speed, exit_policy=exit_policy, clock=clock,
                         scene=scene, collisions=collisions)
             robot._owns_bus = True
+            if publish and not bus.spec.simulated:
+                robot._publish_live()
             if hold:
                 robot.hold()
         except BaseException:
             bus.close()
+            if robot is not None and robot.live is not None:
+                robot.live.close()
             raise
         return robot
 
@@ -258,11 +277,26 @@ class Robot:
         finally:
             if self._owns_bus:
                 self.bus.close()  # type: ignore[attr-defined]
+            if self.live is not None:
+                self.live.close()
+                self.live = None
+
+    def _publish_live(self) -> None:
+        """Serve the live state of this robot's port to watchers (:attr:`live`)."""
+        from armctl.robot.live_publisher import publish_robot
+
+        spec = self.arm.spec
+        names = self.bus.joint_names
+        units = ["m" if self.arm.joint_types[self.arm.joint_index(n)] is JointType.PRISMATIC
+                 else "rad" for n in names]
+        self.live = publish_robot(self, spec.name, str(spec.file or spec.name),
+                                  str(self.bus.spec.port), names, units)  # type: ignore[attr-defined]
 
     def apply_exit_policy(self, policy: ExitPolicy) -> None:
         """Hold (torque stays on), park (move to the 'park' pose, then hold) or release.
 
         Parking is a motion like any other: a stop signal during it decelerates and holds.
+        While the motions are paused (:meth:`pause`) the arm holds instead of parking.
         When the straight joint-space move to ``park`` collides, a way around is planned
         (:func:`~armctl.motion.detour.plan_detour`); when none is found the arm holds.
 
@@ -274,12 +308,18 @@ class Robot:
             if "park" not in self.arm.spec.poses:
                 logger.warning("arm %r has no 'park' pose; holding instead", self.arm.name)
                 return
+            if self.control.paused:  # a pause holds the arm until resumed, also at the end
+                logger.warning("the motions are paused: holding instead of parking (resume "
+                               "before the end to park)")
+                return
             plan = self.plan_joints(self.arm.named_pose("park"), min(self.speed, 0.5),
                                     "park (exit policy)", DetourOptions(planner=Planner.BUILTIN))
             self.execute(plan)
         elif policy is ExitPolicy.RELEASE:
             logger.warning("releasing torque: a raised arm will fall")
             self.bus.set_torque(False)
+            if self.live is not None:
+                self.live.torque = False
 
     @property
     def simulated(self) -> bool:
@@ -290,7 +330,9 @@ class Robot:
     def joints(self) -> Array:
         """Present joint values of the whole arm ``(dof,)`` [rad]/[m] (one sync read)."""
         q = self._q.copy()
-        q[self.executor.idx] = self.bus.read_joints()
+        q[self.executor.idx] = read = self.bus.read_joints()
+        if self.live is not None:
+            self.live.reading(read)
         return q
 
     def pose(self, frame: str | None = None) -> Array:
@@ -306,6 +348,8 @@ class Robot:
         """
         self.plan_start()  # never command a goal outside the effective limits
         self.executor.hold()
+        if self.live is not None:
+            self.live.torque = True
         return self.joints()
 
     def _short_cause(self, joint: str, goal: float) -> str | None:
@@ -530,6 +574,36 @@ class Robot:
         return self._joint_plan(start, q, speed, "move to pose", detour), res
 
     # ---- moving -------------------------------------------------------------------------------
+    def pause(self) -> None:
+        """Decelerate the running motion to a stop on its path and hold (any thread).
+
+        See :meth:`MotionControl.pause <armctl.robot.motion_control.MotionControl.pause>`;
+        motions started while paused start held until :meth:`resume`.
+        """
+        self.control.pause()
+
+    def resume(self) -> None:
+        """Go on along the path after :meth:`pause` (any thread)."""
+        self.control.resume()
+
+    def set_speed(self, speed: float) -> float:
+        """Set the speed override of running and later motions (any thread).
+
+        See :meth:`MotionControl.set_speed
+        <armctl.robot.motion_control.MotionControl.set_speed>`.
+
+        Args:
+            speed: Times as fast as planned [-], 0.01 to 100; capped at what the running
+                plan's joint limits allow.
+
+        Returns:
+            The override applied to the running motion.
+
+        Raises:
+            InputError: For a bad factor (NaN, zero, negative, out of range).
+        """
+        return self.control.set_speed(speed)
+
     def execute(self, plan: MotionPlan, on_cycle: Callable[[CycleInfo], None] | None = None,
                 record: bool = False) -> StreamResult:
         """Check a plan, then stream it, stopping safely on a stop signal or a fault.
@@ -537,7 +611,9 @@ class Robot:
         The plan is checked first (:meth:`check_plan`); a refused plan writes nothing. SIGINT
         (Ctrl-C), SIGTERM and SIGHUP (main thread), or a ``KeyboardInterrupt`` raised by
         ``on_cycle``, decelerate the arm within its limits and hold it; a second one during the
-        deceleration holds at once. The exit policy is not applied.
+        deceleration holds at once. The exit policy is not applied. The motion follows
+        :attr:`control` (:meth:`pause`, :meth:`resume`, :meth:`set_speed`, from any thread) by
+        time scaling along the plan's path.
 
         Raises:
             ServoAlarmError, JointLimitError, LimitViolation, InputError: The plan was refused
@@ -552,12 +628,21 @@ class Robot:
         if listener is not None:
             record = True
             self.executor.last_log = ([], [], [])
+        live = self.live
+        if live is not None:  # watchers see every cycle (stored, never waited for)
+            from armctl.robot.live_publisher import cycle_hook
+
+            live.torque = True
+            activity = self._activity or Activity.of_verb(live.hello.verb)
+            on_cycle = cycle_hook(live, activity, plan.description, on_cycle)
         try:
-            return self.executor.run(plan, self.stop, on_cycle, record)
+            return self.executor.run(plan, self.stop, on_cycle, record, self.control)
         except MotionStopped as stopped:
             self._locate(stopped)
             raise
         finally:
+            if live is not None:
+                live.idle()
             if listener is not None:
                 listener(self.executor.last_log)
 
@@ -750,7 +835,11 @@ class Robot:
         plan = self.plan_program(program, options, solver)
         if dry_run:
             return MoveReport(plan)
-        res = self.execute(plan, on_cycle)
+        self._activity = Activity.PLAY
+        try:
+            res = self.execute(plan, on_cycle)
+        finally:
+            self._activity = None
         return MoveReport(plan, res, reached=self.arm.fk(res.final))
 
     @property

@@ -206,13 +206,16 @@ class TeachSession:
         """Torque off for the released joints, or back on holding the present pose."""
         if limp:
             self.robot.bus.set_torque(False, self.release)
+            if self.robot.live is not None:  # watchers: off for all, or some on (unknown)
+                everyone = set(self.release) >= set(self.robot.bus.joint_names)
+                self.robot.live.torque = False if everyone else None
         else:
             self.robot.hold()
         self.limp = limp
 
     # ---- recording ----------------------------------------------------------------------------
     def record(self, name: str = "", dwell: float = 0.0, gripper: float | None = None,
-               with_gripper: bool = False) -> Keyframe:
+               with_gripper: bool = False, at: npt.ArrayLike | None = None) -> Keyframe:
         """Record the present pose as a keyframe and save the file.
 
         Args:
@@ -220,6 +223,8 @@ class TeachSession:
             dwell: Time to stay there on playback [s].
             gripper: Gripper value to command there [rad]/[m].
             with_gripper: Record the gripper's present position as its value.
+            at: Joint values ``(dof,)`` [rad]/[m] to record instead of the present ones (e.g.
+                the goal a jogged arm holds, which its servos settle within a tick of).
 
         Returns:
             The keyframe.
@@ -228,7 +233,7 @@ class TeachSession:
             raise InputError(f"dwell must be a time of 0 s or more, got {dwell}")
         if gripper is not None:
             self._check_gripper(gripper)
-        q = self.robot.joints()
+        q = self.robot.joints() if at is None else self.robot.arm.as_q(at, "keyframe joints")
         if with_gripper and gripper is None and self.robot.gripper_joints:
             gripper = float(q[self.robot.arm.joint_index(self.robot.gripper_joints[0])])
         values = tuple(float(q[self.robot.arm.joint_index(n)]) for n in self.joints)

@@ -58,6 +58,7 @@ from armctl.errors import (
 )
 from armctl.motion import Keyframe, KeyframeProgram, MotionPlan, save_keyframes, stop_trajectory
 from armctl.robot.errors import MotionStopped
+from armctl.robot.live_state import Activity
 from armctl.robot.session import Robot
 from armctl.robot.stop import StopRequest, signals_stop
 from armctl.robot.teach import ExistingFile, check_output, taught_joints
@@ -608,6 +609,7 @@ class Teleop:
         failure: BaseException | None = None
         t0 = last = clock.now()
         stop = self.stop
+        watched = fol.live, self.leader.live  # publishers of the two ports' live state
         try:
             with signals_stop(stop):
                 while not stop.requested:
@@ -636,6 +638,12 @@ class Teleop:
                     lat.append(clock.now() - begin)
                     self._count(clamped, rate_limited, target)
                     full[idx] = cmd
+                    if watched[0] is not None:
+                        watched[0].cycle(Activity.TELEOP, "following the leader", k * dt, None,
+                                         cmd, None)
+                    if watched[1] is not None:
+                        watched[1].cycle(Activity.TELEOP, "leading (moved by hand)", k * dt,
+                                         None, None, leader_q)
                     if self.recorder is not None:
                         self.recorder.sample(k * dt, full)
                     if on_cycle is not None:
@@ -648,6 +656,9 @@ class Teleop:
         except BaseException as exc:  # the follower's bus failed, or an error in on_cycle
             failure = exc
         reason = stop.reason
+        for publisher in watched:
+            if publisher is not None:
+                publisher.idle()
         try:
             self._controlled_stop(full, None if stop.requested else failure)
         finally:

@@ -146,9 +146,14 @@ def port_error(port: str, exc: BaseException) -> PortError:
                              "$USER', then log out and back in")
     if code in (errno.EBUSY, errno.EAGAIN) or "busy" in text.lower() or \
             "exclusively lock" in text:
-        return PortError("port busy: in use by another program", port,
+        from armctl.servo.port_holders import port_holders
+
+        holders = port_holders(port)
+        held = f"; open in {'; '.join(str(h) for h in holders)}" if holders else ""
+        return PortError(f"port busy: in use by another program{held}", port,
                          fix="close the other program (another armctl, a serial terminal, "
-                             f"a robot framework); 'fuser {port}' shows which")
+                             f"a robot framework); 'fuser {port}' shows which; 'armctl status "
+                             "CONFIG --port PORT' watches an armctl command that owns it")
     if code == errno.EISDIR or "Is a directory" in text:
         return PortError("not a serial port: it is a directory", port,
                          fix=f"give the adapter's device, e.g. /dev/ttyACM0; {_LIST_PORTS}")

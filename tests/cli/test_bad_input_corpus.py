@@ -249,10 +249,11 @@ CORPUS: list[tuple[list[str], int]] = [
     (["workspace", SO, "-o", "{d}/w.png", "--samples", "0"], 2),
     (["workspace", SO, "-o", "{d}/w.png", "--voxel", "nan"], 2),
     (["workspace", SO, "-o", "{d}/w.png", "--frame", "no_frame"], 2),
-    (["view", SO, "--port", "70000"], 2),
+    (["view", SO, "--http-port", "70000"], 2),
+    (["view", SO, "--port", "8080"], 2),
     (["view", SO, "--rate", "0"], 2),
     (["view", SO, "--duration", "nan"], 2),
-    (["view", SO, "--sim"], 2),
+    (["view", PLANAR, "--bus"], 2),
     # -- bus commands ----------------------------------------------------------------------
     (["scan"], 2),
     (["scan", "--port", "/nonexistent_armctl_port"], 4),
@@ -312,6 +313,14 @@ CORPUS: list[tuple[list[str], int]] = [
     (["status", SO, "--once", "--scene", "{list}"], 2),
     (["render", SO, "-o", "{d}/x.png", "--scene", "{broken}"], 2),
     (["render", SO, "-o", "{d}/x.png", "--scene", "{list}", "--no-scene"], 2),
+    # -- jog -------------------------------------------------------------------------------------
+    (["jog", "no_such_arm"], 2),
+    (["jog", SO, "--speed", "0"], 2),
+    (["jog", SO, "--deg-steps", "nan"], 2),
+    (["jog", SO, "--mm-steps", "1", "2", "500"], 2),
+    (["jog", SO, "-o", "{existing}"], 2),
+    (["jog", SO, "--force"], 2),
+    (["jog", SO, "--sim"], 2),  # standard input is not a terminal
     # -- collisions ------------------------------------------------------------------------------
     (["collisions", "no_such_arm"], 2),
     (["collisions", "{kf}"], 2),

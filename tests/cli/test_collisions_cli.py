@@ -142,8 +142,8 @@ def test_write_refuses_bundled_arms_and_urdfs(capsys: pytest.CaptureFixture[str]
     (["collisions", "so101", "--generate", "--samples", "0"], "'0' must be 1 or more"),
     (["collisions", "so101", "--generate", "--samples", "x"], "'x' is not a whole number"),
     (["collisions", "so101", "--generate", "--seed", "-1"], "'-1' must be zero or more"),
-    (["collisions", "so101", "--write"], "--write applies with --generate only"),
-    (["collisions", "so101", "--samples", "10"], "--samples applies with --generate only"),
+    (["collisions", "so101", "--write"], "--write only matters with --generate"),
+    (["collisions", "so101", "--samples", "10"], "--samples only matters with --generate"),
     (["collisions", "so101", "--generate", "--samples", "2000000000"], "is more than"),
     (["collisions", "so101", "--scene", "missing.yaml"], "missing.yaml"),
 ])

@@ -84,6 +84,20 @@ def test_info_does_not_import_the_compiler(arm: str) -> None:
         assert heavy not in res["loaded"], res["loaded"]
 
 
+@pytest.mark.parametrize(("argv", "shown"), [
+    (("arms",), "so101"),
+    (("collisions", "so101"), "adjacent"),  # shows the matrix: nothing to compute
+    (("ports",), ""),
+])
+def test_verbs_that_compute_nothing_import_neither_compiler_nor_casadi(
+        argv: tuple[str, ...], shown: str) -> None:
+    res = _main(*argv)
+    assert res["code"] == 0, res
+    assert shown in str(res["out"])
+    for heavy in ("numba", "llvmlite", "casadi", "matplotlib"):
+        assert heavy not in res["loaded"], (argv, res["loaded"])
+
+
 def test_fk_does_not_import_the_compiler_and_matches_the_compiled_kernels() -> None:
     res = _main("fk", "ur5e", "0.1", "0.2", "0.3", "0.4", "0.5", "0.6", "--json")
     assert res["code"] == 0

@@ -78,15 +78,15 @@ def test_workspace_command(tmp_path, capsys):
 
 
 def test_view_command_serves_and_stops(capsys):
-    code, data, _ = run(capsys, "view", SHAPES5, "--port", "0", "--duration", "0.3", "--json")
+    code, data, _ = run(capsys, "view", SHAPES5, "--http-port", "0", "--duration", "0.3", "--json")
     assert code == 0 and data["url"].startswith("http://127.0.0.1:") and data["bus"] is False
 
 
 def test_view_follows_the_simulated_bus(capsys):
-    code, data, _ = run(capsys, "view", "so101", "--bus", "--sim", "--port", "0", "--duration",
+    code, data, _ = run(capsys, "view", "so101", "--bus", "--sim", "--http-port", "0", "--duration",
                         "0.3", "--json")
     assert code == 0 and data["bus"] is True
-    code, _, err = run(capsys, "view", PLANAR, "--bus", "--port", "0", "--duration", "0.1")
+    code, _, err = run(capsys, "view", PLANAR, "--bus", "--http-port", "0", "--duration", "0.1")
     assert code == 2 and "no 'bus:' section" in err
 
 

@@ -21,9 +21,7 @@ from armctl.ik.analytic._subproblems import (
     dot,
     lin_trig,
     mm_into,
-    mmt,
     mtm_into,
-    mtv,
     mv,
     mv_into,
     norm,
@@ -50,6 +48,25 @@ def _perp(k: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def _perp_into(k: np.ndarray, out: np.ndarray) -> None:
+    """:func:`_perp` written into ``out`` (no allocation)."""
+    i = 0
+    if abs(k[1]) < abs(k[i]):
+        i = 1
+    if abs(k[2]) < abs(k[i]):
+        i = 2
+    # k x e_i
+    if i == 0:
+        x, y, z = 0.0, k[2], -k[1]
+    elif i == 1:
+        x, y, z = -k[2], 0.0, k[0]
+    else:
+        x, y, z = k[1], -k[0], 0.0
+    n = math.sqrt(x * x + y * y + z * z)
+    out[0], out[1], out[2] = x / n, y / n, z / n
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def pos3(h: np.ndarray, o: np.ndarray, w: np.ndarray, target: np.ndarray, ref: np.ndarray,
          out: np.ndarray) -> tuple[int, bool]:
     """Angles of three revolute joints that bring the point ``w`` to ``target``.
@@ -68,18 +85,20 @@ def pos3(h: np.ndarray, o: np.ndarray, w: np.ndarray, target: np.ndarray, ref: n
         out: ``(>=4, >=3)`` receives the angles in columns 0-2.
     """
     h1, h2, h3 = h[0], h[1], h[2]
-    v = target - o[0]
-    p12 = o[1] - o[0]
-    p23 = o[2] - o[1]
-    p34 = w - o[2]
+    vec = np.empty((6, 3))  # one allocation for the vectors below
+    v, p12, p23, p34, rv, pv = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5]
+    for r in range(3):
+        v[r] = target[r] - o[0, r]
+        p12[r] = o[1, r] - o[0, r]
+        p23[r] = o[2, r] - o[1, r]
+        p34[r] = w[r] - o[2, r]
     lscale = norm(v) + norm(p12) + norm(p23) + norm(p34) + 1e-300
     cca, ssa, csa = trig_coeffs(h2, h1, v)
     ccb, ssb, csb = trig_coeffs(p12, h1, v)
     ccc, ssc, csc = trig_coeffs(h2, h3, p34)
     ccd, ssd, csd = trig_coeffs(p23, h3, p34)
-    a = np.empty((2, 2))
-    b = np.empty((2, 2))
-    d = np.empty(2)
+    coef = np.empty((5, 2))  # a (rows 0-1), b (rows 2-3), d (row 4)
+    a, b, d = coef[0:2], coef[2:4], coef[4]
     k1 = 1.0 / lscale
     k2 = k1 * k1
     a[0, 0], a[0, 1] = cca * k1, -ssa * k1
@@ -89,11 +108,9 @@ def pos3(h: np.ndarray, o: np.ndarray, w: np.ndarray, target: np.ndarray, ref: n
     b[1, 0], b[1, 1] = -2.0 * ccd * k2, -2.0 * ssd * k2
     d[1] = (dot(p23, p23) + dot(p34, p34) - dot(v, v) - dot(p12, p12) + 2.0 * csb
             + 2.0 * csd) * k2
-    t1 = np.empty(4)
-    t3 = np.empty(4)
+    ts = np.empty((2, 4))
+    t1, t3 = ts[0], ts[1]
     n, singular = circle2(a, b, d, ref[0], ref[2], t1, t3)
-    rv = np.empty(3)
-    pv = np.empty(3)
     for i in range(n):
         # rv = rot(h1, -t1) v - p12, pv = p23 + rot(h3, t3) p34 (Rodrigues, no temporaries)
         c1, s1 = math.cos(t1[i]), -math.sin(t1[i])
@@ -126,19 +143,25 @@ def spherical_wrist(h: np.ndarray, o: np.ndarray, m: np.ndarray, goal: np.ndarra
     ``ref[3]`` for ``q4``.
     """
     w = o[3]
-    wt = mtv(m, w - m[:3, 3])  # wrist centre in the tool frame
-    target = mv(goal, wt) + goal[:3, 3]
+    # scratch (a few allocations, none per candidate)
+    vec = np.empty((7, 3))
+    dw, target, u6, v456, v5, v6, t5s = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
+    mats = np.empty((6, 3, 3))
+    rg, ra, rb, rc, r456, r5 = mats[0], mats[1], mats[2], mats[3], mats[4], mats[5]
+    for r in range(3):
+        dw[r] = w[r] - m[r, 3]
+    for r in range(3):  # the wrist centre: goal applied to its place in the tool frame
+        target[r] = goal[r, 3]
+        for c in range(3):
+            target[r] += goal[r, c] * (m[0, c] * dw[0] + m[1, c] * dw[1] + m[2, c] * dw[2])
     arm = np.empty((4, 3))
     n3, singular = pos3(h, o, w, target, ref, arm)
-    rg = mmt(goal, m)
+    for r in range(3):  # rg = goal R m R^T
+        for c in range(3):
+            rg[r, c] = goal[r, 0] * m[c, 0] + goal[r, 1] * m[c, 1] + goal[r, 2] * m[c, 2]
     h4, h5, h6 = h[3], h[4], h[5]
-    u6 = _perp(h6)
+    _perp_into(h6, u6)
     cc, ss, cst = trig_coeffs(h4, h5, h6)
-    t5s = np.empty(2)
-    # scratch for the loops (no allocation per candidate)
-    ra, rb, rc = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    r456, r5 = np.empty((3, 3)), np.empty((3, 3))
-    v456, v5, v6 = np.empty(3), np.empty(3), np.empty(3)
     n = 0
     for i in range(n3):
         rot_into(h[0], arm[i, 0], ra)
@@ -192,18 +215,20 @@ def _parallel_pair(h: np.ndarray, o: np.ndarray, p: np.ndarray, p5: np.ndarray,
         t5: Receives the matching ``q5`` [rad].
     """
     h1, h2, h5 = h[0], h[1], h[4]
-    lscale = norm(p) + norm(p5) + norm(o[4] - o[0]) + 1e-300
+    d15 = math.sqrt((o[4, 0] - o[0, 0]) ** 2 + (o[4, 1] - o[0, 1]) ** 2
+                    + (o[4, 2] - o[0, 2]) ** 2)
+    lscale = norm(p) + norm(p5) + d15 + 1e-300
     cca, ssa, csa = trig_coeffs(h2, h1, p)
     ccb, ssb, csb = trig_coeffs(h2, h5, p5)
     ccc, ssc, csc = trig_coeffs(h2, h1, e)
     ccd, ssd, csd = trig_coeffs(h2, h5, e5)
-    a = np.empty((2, 2))
-    b = np.empty((2, 2))
-    d = np.empty(2)
+    coef = np.empty((5, 2))  # a (rows 0-1), b (rows 2-3), d (row 4)
+    a, b, d = coef[0:2], coef[2:4], coef[4]
     k = 1.0 / lscale
     a[0, 0], a[0, 1] = cca * k, -ssa * k
     b[0, 0], b[0, 1] = -ccb * k, -ssb * k
-    d[0] = (dot(h2, o[4] - o[0]) - csa + csb) * k
+    d[0] = (h2[0] * (o[4, 0] - o[0, 0]) + h2[1] * (o[4, 1] - o[0, 1])
+            + h2[2] * (o[4, 2] - o[0, 2]) - csa + csb) * k
     a[1, 0], a[1, 1] = ccc, -ssc
     b[1, 0], b[1, 1] = -ccd, -ssd
     d[1] = csd - csc
@@ -214,19 +239,33 @@ def _parallel_pair(h: np.ndarray, o: np.ndarray, p: np.ndarray, p5: np.ndarray,
 def _planar(h: np.ndarray, o: np.ndarray, q: np.ndarray, t234: float, ref: np.ndarray,
             out: np.ndarray, row: int) -> tuple[int, bool]:
     """``q2, q3, q4`` of three parallel axes given ``R2 (p23 + R3 p34) = q`` and their sum."""
+    return _planar_into(h, o, q, t234, ref, out, row, np.empty((4, 3)))
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def _planar_into(h: np.ndarray, o: np.ndarray, q: np.ndarray, t234: float, ref: np.ndarray,
+                 out: np.ndarray, row: int, vec: np.ndarray) -> tuple[int, bool]:
+    """:func:`_planar` with its scratch ``vec`` ``(4, 3)`` given (no allocation)."""
     h2, h3 = h[1], h[2]
-    p23 = o[2] - o[1]
-    p34 = o[3] - o[2]
+    p23, p34, pv, t3s = vec[0], vec[1], vec[2], vec[3]
+    for r in range(3):
+        p23[r] = o[2, r] - o[1, r]
+        p34[r] = o[3, r] - o[2, r]
     ls = norm(p23) + norm(p34) + norm(q) + 1e-300
     cc, ss, cst = trig_coeffs(p23, h3, p34)
-    t3s = np.empty(2)
     k3 = lin_trig(2.0 * cc, 2.0 * ss,
                   dot(q, q) - dot(p23, p23) - dot(p34, p34) - 2.0 * cst, ls * ls, t3s)
     singular = False
     if k3 == -1:
         k3, t3s[0], singular = 1, ref[2], True
+    hp = dot(h3, p34)
     for j in range(k3):
-        t2, deg = sp1(h2, p23 + rotv(h3, t3s[j], p34), q, _DEG * ls)
+        c3, s3 = math.cos(t3s[j]), math.sin(t3s[j])
+        for r in range(3):  # p23 + rot(h3, t3) p34 (Rodrigues, no temporaries)
+            r1, r2 = (r + 1) % 3, (r + 2) % 3
+            pv[r] = (p23[r] + p34[r] * c3 + (h3[r1] * p34[r2] - h3[r2] * p34[r1]) * s3
+                     + h3[r] * hp * (1.0 - c3))
+        t2, deg = sp1(h2, pv, q, _DEG * ls)
         if deg:
             t2 = ref[1]
             singular = True
@@ -244,21 +283,28 @@ def three_parallel(h: np.ndarray, o: np.ndarray, m: np.ndarray, goal: np.ndarray
     ``q1, q5`` from :func:`_parallel_pair`; ``q6`` and the sum ``q2 + q3 + q4`` by
     subproblem 1; ``q3`` from the planar distance, ``q2`` by subproblem 1.
     """
-    rg = mmt(goal, m)
     h1, h2, h5, h6 = h[0], h[1], h[4], h[5]
-    p = goal[:3, 3] - o[0] - mv(rg, m[:3, 3] - o[5])
-    e = mv(rg, h6)
-    t1s = np.empty(4)
-    t5s = np.empty(4)
-    n2, singular = _parallel_pair(h, o, p, o[5] - o[4], e, h6, ref[0], ref[4], t1s, t5s)
-    u2 = _perp(h2)
-    p21 = o[1] - o[0]
-    p45 = o[4] - o[3]
-    p56 = o[5] - o[4]
-    # scratch for the loop (no allocation per candidate)
-    r1, r5, r6 = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    ra, rb = np.empty((3, 3)), np.empty((3, 3))
-    va, vb, vc, q = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    # scratch (a few allocations, none per candidate)
+    mats = np.empty((6, 3, 3))
+    rg, r1, r5, r6, ra, rb = mats[0], mats[1], mats[2], mats[3], mats[4], mats[5]
+    vec = np.empty((12, 4))
+    t1s, t5s = vec[0], vec[1]
+    p, e, u2, p21, p45, p56 = vec[2, :3], vec[3, :3], vec[4, :3], vec[5, :3], vec[6, :3], vec[7, :3]
+    va, vb, vc, q = vec[8, :3], vec[9, :3], vec[10, :3], vec[11, :3]
+    planar = np.empty((4, 3))  # _planar_into's scratch
+    for r in range(3):  # rg = goal R m R^T
+        for c in range(3):
+            rg[r, c] = goal[r, 0] * m[c, 0] + goal[r, 1] * m[c, 1] + goal[r, 2] * m[c, 2]
+    for r in range(3):
+        va[r] = m[r, 3] - o[5, r]
+        p21[r] = o[1, r] - o[0, r]
+        p45[r] = o[4, r] - o[3, r]
+        p56[r] = o[5, r] - o[4, r]
+    for r in range(3):
+        p[r] = goal[r, 3] - o[0, r] - (rg[r, 0] * va[0] + rg[r, 1] * va[1] + rg[r, 2] * va[2])
+        e[r] = rg[r, 0] * h6[0] + rg[r, 1] * h6[1] + rg[r, 2] * h6[2]
+    n2, singular = _parallel_pair(h, o, p, p56, e, h6, ref[0], ref[4], t1s, t5s)
+    _perp_into(h2, u2)
     n = 0
     for i in range(n2):
         rot_into(h1, t1s[i], r1)
@@ -287,7 +333,7 @@ def three_parallel(h: np.ndarray, o: np.ndarray, m: np.ndarray, goal: np.ndarray
         mv_into(ra, vb, vc)
         for r in range(3):
             q[r] = (r1[0, r] * p[0] + r1[1, r] * p[1] + r1[2, r] * p[2]) - p21[r] - vc[r]
-        k, s = _planar(h, o, q, t234, ref, out, n)
+        k, s = _planar_into(h, o, q, t234, ref, out, n, planar)
         singular = singular or s
         for j in range(n, n + k):
             out[j, 0] = t1s[i]

@@ -8,7 +8,7 @@ import numba as nb
 import numpy as np
 
 from armctl.ik.analytic._families import spherical_wrist, three_parallel
-from armctl.ik.analytic._polish import POSE, assemble
+from armctl.ik.analytic._polish import POSE, assemble, distinct_rows
 from armctl.ik.analytic._search import CAPACITY, one_pair
 from armctl.ik.analytic.general6r import general6r
 
@@ -26,7 +26,8 @@ def _candidates(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.n
         ``(raw, n, singular)``: the first ``n`` rows of ``raw`` ``(CAPACITY, 7)`` are the
         candidates in solver-chain joints, and whether the goal is at a singularity.
     """
-    target = np.empty((4, 4))
+    buf = np.empty(22)  # the target pose and the reference in one allocation
+    target = buf[0:16].reshape((4, 4))
     for i in range(4):
         for j in range(4):
             target[i, j] = goal[i, j] if i < 3 else (1.0 if j == 3 else 0.0)
@@ -37,7 +38,7 @@ def _candidates(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.n
         for i in range(3):
             target[i, 3] = -(goal[0, i] * goal[0, 3] + goal[1, i] * goal[1, 3]
                              + goal[2, i] * goal[2, 3])
-    ref = np.empty(6)
+    ref = buf[16:22]
     for c in range(6):
         ref[c] = sign[c] * q_ref[joints[c]]
     raw = np.empty((CAPACITY, 7))
@@ -97,34 +98,34 @@ OK, NOT_FINITE, NOT_ROTATION, NEEDS_CLEANUP, BAD_REF = 0, 1, 2, 3, 4
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
-def pose6_distinct(geo: np.ndarray, ints: np.ndarray, jd: np.ndarray, fd: np.ndarray,
-                   paths: np.ndarray, q_ref: np.ndarray, goal: np.ndarray,
+def pose6_distinct(f64: np.ndarray, i64: np.ndarray, q_ref: np.ndarray, goal: np.ndarray,
                    tol: float) -> tuple[np.ndarray, np.ndarray, int]:
     """The distinct solutions of a pose goal for a 6R chain of a family, in one call.
 
     The goal is checked first (finite, a rotation matrix); then the family's closed form,
-    the polish (:func:`armctl.ik.analytic._polish.finalize`), and for each solution the 2 pi
-    variant of every solved joint inside its limits nearest to ``q_ref`` (the wrapped value
-    when it has none there). Solutions closer than 1e-6 rad on every joint (modulo 2 pi) are
-    one (:func:`armctl.ik.analytic._polish.finalize`); nearby distinct solutions are all kept.
+    and :func:`armctl.ik.analytic._polish.distinct_rows`: each candidate checked on the
+    model's FK and polished, duplicates (closer than 1e-6 rad on every joint, modulo 2 pi)
+    merged, each solution's solved joints at their 2 pi variants inside the limits nearest to
+    ``q_ref`` (the wrapped value when there is none there), nearest to ``q_ref`` first. Nearby
+    distinct solutions are all kept. Everything about the arm comes in two flat arrays (one
+    compiled call with few arguments: the call itself is a good part of the time).
 
     Args:
-        geo: The chain's constants, flattened: axes ``h`` (18), points ``o`` (18), tool pose
-            ``m`` (16), signs (6), then the model's lower and upper joint limits (dof each).
-        ints: ``[code, inverted, frame index, number of solved joints, chain joints (6),
-            solved joints (k)]``.
-        jd: Packed joints of the model.
-        fd: Packed frames of the model.
-        paths: Joint paths of the model's frames.
+        f64: The arm's real constants, flattened (:func:`pack6`): axes ``h`` (18), points
+            ``o`` (18), tool pose ``m`` (16), signs (6), the lower and upper joint limits
+            (dof each), the packed joints and the packed frames of the model.
+        i64: Its integer constants: ``[code, inverted, frame index, number of solved joints k,
+            joint rows, joint columns, frame rows, frame columns, path columns, chain joints
+            (6), solved joints (k), joint paths of the frames]``.
         q_ref: ``(dof,)`` reference configuration [rad].
         goal: ``(4, 4)`` target pose (its last row is ignored).
         tol: Acceptance tolerance [m] and [rad].
 
     Returns:
         ``(rows, inside, flags)``: ``rows`` ``(k, dof + 2)`` holds each solution's joints and
-        its position and rotation errors, nearest to ``q_ref`` first; ``inside`` ``(k,)``
-        whether each lies inside the limits; ``flags`` is ``2 * status + singular``
-        (status :data:`OK`, :data:`NOT_FINITE`,
+        its position [m] and rotation [rad] errors, nearest to ``q_ref`` first; ``inside``
+        ``(k,)`` whether each lies inside the limits; ``flags`` is
+        ``2 * status + singular`` (status :data:`OK`, :data:`NOT_FINITE`,
         :data:`NOT_ROTATION`, :data:`NEEDS_CLEANUP` for a rotation that is off by more
         than round-off and must be orthonormalised first, :data:`BAD_REF` for a ``q_ref``
         with NaN or inf).
@@ -138,53 +139,70 @@ def pose6_distinct(geo: np.ndarray, ints: np.ndarray, jd: np.ndarray, fd: np.nda
         for j in range(4):
             if not math.isfinite(goal[i, j]):
                 status = NOT_FINITE
+    if status == OK:
+        dev = 0.0
+        for i in range(3):
+            for j in range(3):
+                s = goal[i, 0] * goal[j, 0] + goal[i, 1] * goal[j, 1] + goal[i, 2] * goal[j, 2]
+                dev = max(dev, abs(s - (1.0 if i == j else 0.0)))
+        det = (goal[0, 0] * (goal[1, 1] * goal[2, 2] - goal[1, 2] * goal[2, 1])
+               - goal[0, 1] * (goal[1, 0] * goal[2, 2] - goal[1, 2] * goal[2, 0])
+               + goal[0, 2] * (goal[1, 0] * goal[2, 1] - goal[1, 1] * goal[2, 0]))
+        if dev > 1e-6 or det < 0.0:
+            status = NOT_ROTATION
+        elif dev > 1e-14:
+            status = NEEDS_CLEANUP
     if status != OK:
         return np.empty((0, dof + 2)), np.empty(0, dtype=np.bool_), 2 * status
-    dev = 0.0
-    for i in range(3):
-        for j in range(3):
-            s = goal[i, 0] * goal[j, 0] + goal[i, 1] * goal[j, 1] + goal[i, 2] * goal[j, 2]
-            dev = max(dev, abs(s - (1.0 if i == j else 0.0)))
-    det = (goal[0, 0] * (goal[1, 1] * goal[2, 2] - goal[1, 2] * goal[2, 1])
-           - goal[0, 1] * (goal[1, 0] * goal[2, 2] - goal[1, 2] * goal[2, 0])
-           + goal[0, 2] * (goal[1, 0] * goal[2, 1] - goal[1, 1] * goal[2, 0]))
-    if dev > 1e-6 or det < 0.0:
-        status = NOT_ROTATION
-    elif dev > 1e-14:
-        status = NEEDS_CLEANUP
-    if status != OK:
-        return np.empty((0, dof + 2)), np.empty(0, dtype=np.bool_), 2 * status
-    h = np.empty((6, 3))
-    o = np.empty((6, 3))
-    m = np.empty((4, 4))
-    for i in range(6):
-        for j in range(3):
-            h[i, j] = geo[3 * i + j]
-            o[i, j] = geo[18 + 3 * i + j]
-    for i in range(4):
-        for j in range(4):
-            m[i, j] = geo[36 + 4 * i + j]
-    sign = geo[52:58]
-    lower = geo[58:58 + dof]
-    upper = geo[58 + dof:58 + 2 * dof]
-    code, inverted, f, k = ints[0], ints[1] != 0, ints[2], ints[3]
-    joints = ints[4:10]
-    cols = ints[10:10 + k]
+    h = f64[0:18].reshape((6, 3))  # views: no copies
+    o = f64[18:36].reshape((6, 3))
+    m = f64[36:52].reshape((4, 4))
+    sign = f64[52:58]
+    lower = f64[58:58 + dof]
+    upper = f64[58 + dof:58 + 2 * dof]
+    code, inverted, f, k = i64[0], i64[1] != 0, i64[2], i64[3]
+    nj, jw, nf, fw, pw = i64[4], i64[5], i64[6], i64[7], i64[8]
+    at = 58 + 2 * dof
+    jd = f64[at:at + nj * jw].reshape((nj, jw))
+    at += nj * jw
+    fd = f64[at:at + nf * fw].reshape((nf, fw))
+    joints = i64[9:15]
+    cols = i64[15:15 + k]
+    paths = i64[15 + k:15 + k + nf * pw].reshape((nf, pw))
     raw, n, singular = _candidates(code, inverted, h, o, m, joints, sign, q_ref, goal)
     is_col = np.zeros(dof, dtype=np.bool_)
     for c in range(k):
         is_col[cols[c]] = True
-    p = np.empty(3)
-    for i in range(3):
-        p[i] = goal[i, 3]
-    z = np.zeros(3)
-    q, inside, errs, _ = assemble(raw, n, joints, sign, cols, is_col, q_ref, POSE, goal, p, z, z,
-                                  jd, fd, paths, f, tol, lower, upper, False)
-    ns = q.shape[0]
-    out = np.empty((ns, dof + 2))
-    for r in range(ns):
-        for j in range(dof):
-            out[r, j] = q[r, j]
-        out[r, dof] = errs[r, 0]
-        out[r, dof + 1] = errs[r, 1]
-    return out, inside, 2 * OK + (1 if singular else 0)
+    rows, inside = distinct_rows(raw, n, joints, sign, cols, is_col, q_ref, goal, jd, fd, paths,
+                                 f, tol, lower, upper)
+    return rows, inside, 2 * OK + (1 if singular else 0)
+
+
+def pack6(h: np.ndarray, o: np.ndarray, m: np.ndarray, sign: np.ndarray, lower: np.ndarray,
+          upper: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, code: int,
+          inverted: bool, f: int, joints: np.ndarray,
+          cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two flat arrays of :func:`pose6_distinct` for a 6R chain and its model.
+
+    Args:
+        h: ``(6, 3)`` axes of the solver chain.
+        o: ``(6, 3)`` points on them [m].
+        m: ``(4, 4)`` its tool pose at the zero configuration.
+        sign: ``(6,)`` sign of each solver-chain joint.
+        lower: Lower joint limits of the model.
+        upper: Upper joint limits of the model.
+        jd: Packed joints of the model.
+        fd: Packed frames of the model.
+        paths: Joint paths of the model's frames.
+        code: :data:`SPHERICAL`, :data:`PARALLEL`, :data:`PAIR` or :data:`GENERAL`.
+        inverted: Whether the chain is inverted.
+        f: The goal frame's index.
+        joints: Model joint index of each solver-chain joint.
+        cols: The solved joints.
+    """
+    f64 = np.concatenate([np.ravel(h), np.ravel(o), np.ravel(m), np.ravel(sign), lower, upper,
+                          np.ravel(jd), np.ravel(fd)]).astype(np.float64)
+    i64 = np.concatenate([[code, int(inverted), f, len(cols), jd.shape[0], jd.shape[1],
+                           fd.shape[0], fd.shape[1], paths.shape[1]], joints, cols,
+                          np.ravel(paths)]).astype(np.int64)
+    return np.ascontiguousarray(f64), np.ascontiguousarray(i64)

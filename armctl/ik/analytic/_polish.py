@@ -411,3 +411,108 @@ def inspect_pose(t: np.ndarray) -> tuple[bool, float, float]:
            - t[0, 1] * (t[1, 0] * t[2, 2] - t[1, 2] * t[2, 0])
            + t[0, 2] * (t[1, 0] * t[2, 1] - t[1, 1] * t[2, 0]))
     return True, dev, det
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def distinct_rows(raw: np.ndarray, count: int, joints: np.ndarray, sign: np.ndarray,
+                  cols: np.ndarray, is_col: np.ndarray, q_ref: np.ndarray, goal: np.ndarray,
+                  jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int, tol: float,
+                  lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`assemble` for a pose goal with one row per solution, in one pass.
+
+    The same rows in the same order as ``assemble(..., POSE, ..., variants=False)`` (each
+    candidate checked on the FK, polished when it is off by more than round-off, kept if within
+    ``tol`` and not a duplicate of an earlier one modulo 2 pi; each solved joint at its 2 pi
+    variant inside the limits nearest ``q_ref``; stably sorted by distance to ``q_ref``), built
+    straight into the output without intermediate arrays.
+
+    Returns:
+        ``(rows (m, dof + 2), within_limits (m,))``: each row the joints [rad] followed by the
+        position [m] and rotation [rad] errors (one array: each array handed back to Python
+        costs more than a slice of it there).
+    """
+    dof = q_ref.shape[0]
+    cap = max(count, 1)
+    out = np.empty((cap, dof + 2))
+    inside = np.empty(cap, dtype=np.bool_)
+    # one scratch allocation for the rest (each allocation costs about as much as an FK joint)
+    nc = cols.shape[0]
+    scratch = np.empty(cap * (1 + nc) + dof + 25)
+    dist = scratch[0:cap]
+    wr = scratch[cap:cap + cap * nc].reshape((cap, nc))
+    base = cap + cap * nc
+    q = scratch[base:base + dof]
+    pose = scratch[base + dof:base + dof + 16].reshape((4, 4))
+    e = scratch[base + dof + 16:base + dof + 22]
+    p = scratch[base + dof + 22:base + dof + 25]
+    for i in range(3):
+        p[i] = goal[i, 3]
+    two_pi = 2.0 * math.pi
+    m = 0
+    for i in range(count):
+        for j in range(dof):
+            q[j] = q_ref[j]
+        ok = True
+        for k in range(joints.shape[0]):
+            if is_col[joints[k]]:
+                v = sign[k] * raw[i, k]
+                if not math.isfinite(v):
+                    ok = False
+                q[joints[k]] = v
+        if not ok:
+            continue
+        fk_into(q, jd, fd, paths, f, pose)
+        ep, er = _residual(pose, POSE, goal, p, p, p, e)
+        if not (ep < _ROUNDOFF and er < _ROUNDOFF):
+            ep, er = polish(q, cols, POSE, goal, p, p, p, jd, fd, paths, f, 20)
+        if not (ep <= tol and er <= tol):
+            continue
+        for c in range(nc):
+            j = cols[c]
+            w = q[j] - two_pi * math.floor((q[j] + math.pi) / two_pi)
+            wr[m, c] = math.pi if w <= -math.pi else w
+        dup = False
+        for r in range(m):  # the kept solutions' wrapped values, in the order they were kept
+            diff = 0.0
+            for c in range(nc):
+                x = abs(wr[m, c] - wr[r, c])
+                diff = max(diff, min(x, two_pi - x))
+            if diff < 1e-6:
+                dup = True
+                break
+        if dup:
+            continue
+        # each solved joint at its variant inside its limits nearest q_ref (else wrapped)
+        for c in range(nc):
+            j = cols[c]
+            v = wr[m, c]
+            if math.isfinite(lower[j]) and math.isfinite(upper[j]):
+                a = math.ceil((lower[j] - 1e-9 - v) / two_pi)
+                b = math.floor((upper[j] + 1e-9 - v) / two_pi)
+                if b >= a:
+                    k = math.floor((q_ref[j] - v) / two_pi + 0.5)
+                    v = v + two_pi * min(max(k, a), b)
+            q[j] = v
+        s = 0.0
+        within = True
+        for j in range(dof):
+            s += (q[j] - q_ref[j]) ** 2
+            if q[j] < lower[j] - 1e-9 or q[j] > upper[j] + 1e-9:
+                within = False
+        d = math.sqrt(s)
+        at = m  # stable insertion: after every row at the same distance
+        while at > 0 and dist[at - 1] > d:
+            at -= 1
+        for r in range(m, at, -1):
+            for j in range(dof + 2):
+                out[r, j] = out[r - 1, j]
+            inside[r] = inside[r - 1]
+            dist[r] = dist[r - 1]
+        for j in range(dof):
+            out[at, j] = q[j]
+        out[at, dof] = ep
+        out[at, dof + 1] = er
+        inside[at] = within
+        dist[at] = d
+        m += 1
+    return out[:m], inside[:m]

@@ -381,15 +381,12 @@ def _reduce_rank1(G: np.ndarray, g0: float, g1: float, t1: np.ndarray, t2: np.nd
     if disc < -ROOT_TOL * (ug * ug + uu * (gg + 1.0)):
         return 0
     root = math.sqrt(max(disc, 0.0))
-    ss = np.empty(2)
-    ss[0] = (ug + root) / uu
-    ss[1] = (ug - root) / uu
     ns = 1 if root == 0.0 else 2
     wn = math.sqrt(big)
     sol = np.empty(2)
     n = 0
     for i in range(ns):
-        k = lin_trig(w0, w1, ss[i], wn, sol)
+        k = lin_trig(w0, w1, (ug + root) / uu if i == 0 else (ug - root) / uu, wn, sol)
         if k == -1:
             return -1
         for j in range(k):

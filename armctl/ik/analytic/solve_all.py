@@ -16,10 +16,10 @@ from armctl.ik.analytic._pipeline import (
     GENERAL,
     NEEDS_CLEANUP,
     NOT_FINITE,
-    OK,
     PAIR,
     PARALLEL,
     SPHERICAL,
+    pack6,
     pose6,
     pose6_distinct,
 )
@@ -377,25 +377,28 @@ class _Plan:
     """What the one-call path of :func:`ik_all` needs of an arm and frame, computed once.
 
     Attributes:
-        geo: The chain's constants for :func:`pose6_distinct` (``None``: no one-call path:
-            no pose decomposition, or joints held at ``q_ref``).
-        ints: Its integer constants.
+        f64: The real constants of :func:`pose6_distinct` (``None``: no one-call path: no
+            pose decomposition, or joints held at ``q_ref``).
+        i64: Its integer constants.
         middle: The middle of the joint ranges (the default ``q_ref``) [rad].
         label: The decomposition's label.
         free: Names of the held joints.
-        model: The model's packed joints, frames and frame paths (its FK kernels' input).
+        dof: The number of joints.
     """
 
-    geo: Array | None
-    ints: npt.NDArray[np.int64]
+    f64: Array | None
+    i64: npt.NDArray[np.int64]
     middle: Array
     label: str
     free: tuple[str, ...]
-    model: tuple[Array, Array, npt.NDArray[np.int64]]
+    dof: int
 
 
 #: Plans by ``(id(model), frame)``; an entry leaves with its model (``weakref.finalize``).
 _PLANS: dict[tuple[int, str | None], _Plan] = {}
+#: The dtype the compiled path takes (compared as a dtype instance: no conversion per call).
+_F64 = np.dtype(np.float64)
+_POSE_SHAPE = (4, 4)
 
 
 def _plan(model: KinematicModel, frame: str | None) -> _Plan:
@@ -405,8 +408,8 @@ def _plan(model: KinematicModel, frame: str | None) -> _Plan:
     if plan is not None:
         return plan
     f = model.frame_index(frame)
-    geo: Array | None = None
-    ints = np.zeros(0, dtype=np.int64)
+    f64: Array | None = None
+    i64 = np.zeros(0, dtype=np.int64)
     label = ""
     free: tuple[str, ...] = ()
     try:
@@ -417,14 +420,12 @@ def _plan(model: KinematicModel, frame: str | None) -> _Plan:
         label, free = dec.label, dec.free_names
         c = dec.chain
         if not dec.free and c.n == 6:
-            geo = np.concatenate([np.ravel(c.h), np.ravel(c.o), np.ravel(c.m),
-                                  np.asarray(c.sign, dtype=float), model.lower,
-                                  model.upper]).astype(np.float64)
-            ints = np.array([_CODE[dec.family], int(dec.inverted), f, len(dec.columns),
-                             *c.index, *dec.columns], dtype=np.int64)
-    tree = model.tree
-    plan = _Plan(geo, ints, model.middle(), label, free,
-                 (tree.joints, tree.frames, tree.paths))
+            tree = model.tree
+            f64, i64 = pack6(c.h, c.o, c.m, np.asarray(c.sign, dtype=float), model.lower,
+                             model.upper, tree.joints, tree.frames, tree.paths,
+                             _CODE[dec.family], dec.inverted, f, np.asarray(c.index),
+                             np.asarray(dec.columns))
+    plan = _Plan(f64, i64, model.middle(), label, free, model.dof)
     _PLANS[key] = plan
     weakref.finalize(model, _PLANS.pop, key, None)
     return plan
@@ -435,7 +436,7 @@ def _fast(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLik
     """The one-call path of :func:`ik_all` for a pose of a 6R family; ``None``: not taken."""
     if type(pose) is np.ndarray:
         arr = pose
-        if arr.shape != (4, 4) or arr.dtype != np.float64:
+        if arr.shape != _POSE_SHAPE or arr.dtype != _F64:
             return None
     elif type(pose) is PoseGoal:
         if frame is not None and pose.frame != frame:
@@ -444,19 +445,18 @@ def _fast(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLik
     else:
         return None
     plan = _PLANS.get((id(model), frame)) or _plan(model, frame)
-    if plan.geo is None:
+    if plan.f64 is None:
         return None
     if q_ref is None:
         ref = plan.middle.copy()  # the result's own (the plan's stays untouched)
-    elif (type(q_ref) is np.ndarray and q_ref.dtype == np.float64
+    elif (type(q_ref) is np.ndarray and q_ref.dtype == _F64
           and q_ref.shape == plan.middle.shape):
         ref = q_ref.copy()  # checked for NaN by the kernel
     else:
         ref = np.array(model.as_q(q_ref, "q_ref"))
-    jd, fd, paths = plan.model
-    rows, inside, flags = pose6_distinct(plan.geo, plan.ints, jd, fd, paths, ref, arr, tol)
-    status = flags >> 1
-    if status != OK:
+    rows, inside, flags = pose6_distinct(plan.f64, plan.i64, ref, arr, tol)
+    if flags > 1:
+        status = flags >> 1
         if status == BAD_REF:
             model.as_q(ref, "q_ref")  # raises with the joint values
         if status == NEEDS_CLEANUP:
@@ -465,11 +465,11 @@ def _fast(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLik
             raise InputError("a pose must be a finite 4x4 transform; it contains NaN or inf")
         raise InputError("the pose's rotation part is not a rotation matrix (R R^T != I or "
                          "det < 0)")
-    dof = ref.shape[0]
     # a frozen dataclass's __init__ sets each field through object.__setattr__; filling the
     # instance dict at once is the same object for a fraction of the cost
+    dof = plan.dof
     sols = object.__new__(IKSolutions)
-    sols.__dict__.update(q=rows[:, :dof], within_limits=inside,
-                         position_error=rows[:, dof], rotation_error=rows[:, dof + 1],
-                         singular=bool(flags & 1), family=plan.label, free=plan.free, q_ref=ref)
+    sols.__dict__.update(q=rows[:, :dof], within_limits=inside, position_error=rows[:, dof],
+                         rotation_error=rows[:, dof + 1], singular=flags == 1,
+                         family=plan.label, free=plan.free, q_ref=ref)
     return sols

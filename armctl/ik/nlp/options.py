@@ -40,10 +40,11 @@ class NLPOptions(IKOptions):
             attempt on goals and weighted terms, and as reliable).
         regularization: Weight of ``|q - q_ref|^2`` in the cost, relative to the goal terms
             (which are normalised by the arm's reach) [1/rad^2]; small, so it only chooses among
-            equally good solutions.
+            equally good solutions. With hard constraints it applies only when ``preferred`` is
+            given (IPOPT from the start ends at a nearby answer anyway, and the term slowed it).
         damping: Levenberg-Marquardt damping added to the Gauss-Newton Hessian (not to the
             cost, so it does not move the answer): bounds the steps in directions the goals
-            leave free.
+            leave free. Problems with hard constraints use IPOPT's exact Hessian instead.
         preferred: Preferred posture ``q_ref`` ``(dof,)`` [rad]/[m]; the start (the previous
             solution when streaming) when ``None``.
         orientation_scale: Length that converts orientation errors into position errors

@@ -7,9 +7,10 @@ The cost is a sum of squared residuals::
 with position residuals divided by the arm's reach ``L`` and orientation residuals written as
 ``(rho / L) (R - R_target)`` (Frobenius form: smooth everywhere, zero only at the target, no
 wrap-around); each goal type writes its own (:meth:`armctl.ik.goals.Goal.nlp_residual`),
-subject to the joint limits and the hard constraints' rows. The Hessian handed to the solver is
-the Gauss-Newton one, ``2 J^T J`` (positive semi-definite, exact at a reached goal), plus the
-exact Hessian of the constraint rows.
+subject to the joint limits and the hard constraints' rows. Without hard constraints the
+Hessian handed to the solver is the Gauss-Newton one, ``2 J^T J`` (positive semi-definite, exact
+at a reached goal); with them IPOPT takes CasADi's exact Hessian of the Lagrangian and its own
+default options (see :func:`_solver_options`).
 
 Everything that changes between solves (targets, weights, constraint numbers, ``q_ref``,
 ``lambda``) is a parameter, so a new target reuses the built solver; :func:`build_count` counts
@@ -19,7 +20,7 @@ the builds so tests can assert it.
 from __future__ import annotations
 
 import weakref
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +41,8 @@ _BUILDS = 0
 #: Iteration cap of the warm-start instance without hard constraints: near the answer it needs
 #: 3-6; beyond this the start was not near after all and a seeded restart is cheaper.
 _WARM_ITERATIONS = 15
+#: IPOPT's iteration cap with hard constraints, in units of ``max_iterations``.
+_HARD_ITERATIONS = 5
 _CACHE: weakref.WeakKeyDictionary[KinematicModel, dict[tuple[object, ...], Problem]] = (
     weakref.WeakKeyDictionary())
 
@@ -84,6 +87,19 @@ class Attempt:
     iterations: int
     solver_status: str
     locally_infeasible: bool
+
+
+class _Instances(dict[bool, Any]):
+    """The solver instances of a problem by ``warm``, each built on first use."""
+
+    def __init__(self, build: Callable[[bool], Any]):
+        super().__init__()
+        self._build = build
+
+    def __missing__(self, warm: bool) -> Any:
+        solver = self._build(warm)
+        self[warm] = solver
+        return solver
 
 
 class Problem:
@@ -152,7 +168,7 @@ class Problem:
         q_ref = p[at:at + model.dof]
         lam = p[at + model.dof]
         damping = p[at + model.dof + 1]
-        residuals.append(ca.sqrt(lam) * (q - q_ref))
+        residuals.append(lam * (q - q_ref))  # lam: the square root of the weight (0 allowed)
         res = ca.vertcat(*residuals)
         g = ca.vertcat(*rows) if rows else ca.SX(0, 1)
         self.n_constraints = len(lbg)
@@ -170,26 +186,28 @@ class Problem:
             g, lbg, ubg = ca.vertcat(g, ca.SX.zeros(1, 1)), [*lbg, -np.inf], [*ubg, np.inf]
         self.lbg = np.array(lbg)
         self.ubg = np.array(ubg)
-        jac = ca.jacobian(res, q)
-        lam_f = ca.SX.sym("lam_f")
-        lam_g = ca.SX.sym("lam_g", len(lbg))
-        # Gauss-Newton plus Levenberg-Marquardt damping: bounded steps where the goals leave
-        # directions free (redundancy, position-only goals) and the regularisation is tiny
-        hess = 2 * lam_f * (jac.T @ jac + damping * ca.SX.eye(model.dof))
-        if self.n_constraints:
-            hess = hess + ca.hessian(ca.dot(lam_g, g), q)[0]
-        if method is Method.IPOPT:
-            hess = ca.triu(hess)
-        hess_fn = ca.Function("hess_lag", [q, p, lam_f, lam_g], [hess],
-                              ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
+        #: IPOPT with hard constraints takes CasADi's exact Hessian (see _solver_options)
+        self.exact_hessian = method is Method.IPOPT and self.n_constraints > 0
+        hess_fn = None
+        if not self.exact_hessian:
+            jac = ca.jacobian(res, q)
+            lam_f = ca.SX.sym("lam_f")
+            lam_g = ca.SX.sym("lam_g", len(lbg))
+            # Gauss-Newton plus Levenberg-Marquardt damping: bounded steps where the goals leave
+            # directions free (redundancy, position-only goals) and the regularisation is tiny
+            hess = 2 * lam_f * (jac.T @ jac + damping * ca.SX.eye(model.dof))
+            if self.n_constraints:
+                hess = hess + ca.hessian(ca.dot(lam_g, g), q)[0]
+            if method is Method.IPOPT:
+                hess = ca.triu(hess)
+            hess_fn = ca.Function("hess_lag", [q, p, lam_f, lam_g], [hess],
+                                  ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
         nlp = {"x": q, "p": p, "f": ca.sumsqr(res), "g": g}
         # two instances of the same problem: tuned for a warm start near the answer (streaming,
-        # polishing), and for a cold start far from it (restarts)
-        self.solvers = {warm: ca.nlpsol(f"armctl_ik_{'warm' if warm else 'cold'}",
-                                        method.value, nlp,
-                                        _solver_options(method, options, hess_fn,
-                                                        self.n_constraints, warm))
-                        for warm in (True, False)}
+        # polishing), and for a cold start far from it (restarts); each built on first use
+        self.solvers = _Instances(lambda warm: ca.nlpsol(
+            f"armctl_ik_{'warm' if warm else 'cold'}", method.value, nlp,
+            _solver_options(method, options, hess_fn, self.n_constraints, warm)))
         self._warm: tuple[Array, Any, Any] | None = None
 
     def params(self, goals: Sequence[Goal], constraints: Sequence[Constraint], q_ref: Array,
@@ -206,7 +224,8 @@ class Problem:
         parts = [_goal_params(g) for g in goals]
         for c in constraints:
             parts.append(c.params() if c.hard else np.concatenate([c.params(), [c.weight]]))
-        parts += [np.asarray(q_ref, dtype=float), np.array([regularization, damping])]
+        parts += [np.asarray(q_ref, dtype=float),
+                  np.array([np.sqrt(regularization), damping])]
         out = np.concatenate(parts)
         if out.shape != (self.n_params,):  # pragma: no cover - guarded by the structure key
             raise InputError("goal structure does not match the built problem")
@@ -261,12 +280,33 @@ def _method(options: NLPOptions, constraints: Sequence[Constraint]) -> Method:
 
 def _solver_options(method: Method, options: NLPOptions, hess: Any, n_constraints: int,
                     warm: bool) -> dict[str, Any]:
+    if method is Method.IPOPT and hess is None:
+        # hard constraints: IPOPT nearly as it comes (exact Hessian, its own scaling, default
+        # tolerances), which reached more of these goals in less time than the Gauss-Newton
+        # form (docs/benchmarks.md, "NLP IK"); the adaptive barrier took fewer iterations
+        # there; a longer iteration budget, as the first iterations from a distant start move
+        # slowly
+        exact: dict[str, Any] = {
+            "print_time": False, "error_on_fail": False, "calc_lam_p": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes", "ipopt.max_iter": _HARD_ITERATIONS * options.max_iterations,
+            "ipopt.mu_strategy": "adaptive",
+        }
+        if warm:  # a start that trusts x0 (polishing an answer)
+            exact.update({"ipopt.mu_init": 1e-5, "ipopt.warm_start_init_point": "yes",
+                          "ipopt.warm_start_bound_push": 1e-9,
+                          "ipopt.warm_start_mult_bound_push": 1e-9})
+        return exact
     if method is Method.IPOPT:
         ipopt: dict[str, Any] = {
-            "hess_lag": hess, "print_time": False, "error_on_fail": False,
+            "hess_lag": hess, "print_time": False, "error_on_fail": False, "calc_lam_p": False,
             "ipopt.print_level": 0, "ipopt.sb": "yes",
             "ipopt.max_iter": _max_iter(options, warm, n_constraints),
-            "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-8,
+            "ipopt.tol": 1e-8, "ipopt.constr_viol_tol": 1e-8,
+            # stop after two iterations at the acceptable level (IPOPT's default waits 15): the
+            # success check by FK decides, and an answer short of a goal is polished
+            "ipopt.acceptable_tol": 1e-6, "ipopt.acceptable_iter": 2,
+            "ipopt.acceptable_constr_viol_tol": 1e-8,
             "ipopt.nlp_scaling_method": "none",  # the residuals are scaled by construction
         }
         if warm:  # an adaptive barrier and a start that trusts x0: few iterations near it
@@ -276,7 +316,7 @@ def _solver_options(method: Method, options: NLPOptions, hess: Any, n_constraint
                         "ipopt.warm_start_mult_bound_push": 1e-9})
         return ipopt
     out: dict[str, Any] = {
-        "hess_lag": hess, "print_time": False, "error_on_fail": False,
+        "hess_lag": hess, "print_time": False, "error_on_fail": False, "calc_lam_p": False,
         "print_header": False, "print_iteration": False, "print_status": False,
         "max_iter": _max_iter(options, warm, n_constraints),
         "tol_pr": 1e-10, "tol_du": 1e-10,

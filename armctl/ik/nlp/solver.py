@@ -10,8 +10,9 @@ budget (``options.time_limit``, ``options.restarts``) is used up:
 3. from random configurations inside the limits (seeded by ``options.seed``); with
    ``Method.AUTO`` and no hard constraints, after eight SQP restarts every other one runs IPOPT.
 
-With hard constraints and ``Method.AUTO`` each attempt first solves the problem with the hard
-constraints as stiff penalties by SQP, then by IPOPT from there.
+With hard constraints each attempt is one IPOPT solve with CasADi's exact Hessian and IPOPT's
+own defaults, and without the regularisation unless ``options.preferred`` asks for it
+(:mod:`armctl.ik.nlp.problem`).
 
 An attempt that ends close to the goals but short of their tolerance (the regularisation pulls
 a little) is polished once with the regularisation centred on its own answer. The best attempt
@@ -55,8 +56,6 @@ _INFEASIBLE_VERDICT = 2
 _POLISHES = 4
 #: Random restarts by SQP alone before AUTO alternates them with IPOPT.
 _SQP_ONLY_RESTARTS = 8
-#: Weight of the hard constraints in the penalty pre-solve (goal weights are about 1).
-_PENALTY = 1e3
 
 
 def check_constraints(model: KinematicModel, constraints: Sequence[Any]) -> tuple[Constraint, ...]:
@@ -146,15 +145,12 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     problem = get_problem(model, goals, cons, opts)
     pref = opts.preferred_array(model.dof)
     q_ref = np.array(q0, dtype=float) if pref is None else pref
-    params = problem.params(goals, cons, q_ref, opts.regularization, opts.damping)
-    pre: tuple[Problem, Array] | None = None
-    if hard and opts.method is Method.AUTO:
-        # the hard constraints as stiff penalties, solved by the cheap SQP first: its answer is
-        # a near-feasible start from which IPOPT needs few iterations
-        soft = tuple(replace(c, weight=_PENALTY) if c.hard else c for c in cons)
-        pre_problem = get_problem(model, goals, soft, replace(opts, method=Method.SQP))
-        pre = (pre_problem,
-               pre_problem.params(goals, soft, q_ref, opts.regularization, opts.damping))
+    # with hard constraints (IPOPT, exact Hessian) the regularisation is left out unless a
+    # preferred posture asks for it: IPOPT's path from the start ends at a nearby answer anyway,
+    # and the tiny weight on the continuum of answers a goal leaves free made it crawl there
+    plain = problem.exact_hessian and pref is None
+    params = problem.params(goals, cons, q_ref, 0.0 if plain else opts.regularization,
+                            opts.damping)
     twin: Problem | None = None  # IPOPT for the same problem, for AUTO's later restarts
     randoms = 0
     # the budget starts after the (cached) build: a first solve's CasADi set-up is not charged
@@ -171,9 +167,6 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
             status = IKStatus.TIME_LIMIT
             break
         attempts += 1
-        if pre is not None:
-            first = pre[0].run(seed, pre[1], warm=origin != "random")
-            seed, iterations = first.q, iterations + first.iterations
         current = problem
         if origin == "random":
             randoms += 1
@@ -182,9 +175,9 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
                 # a goal whose basin SQP rarely finds from random starts: alternate with IPOPT
                 twin = twin or get_problem(model, goals, cons, replace(opts, method=Method.IPOPT))
                 current = twin
-        # the warm-start tuning suits a start near the answer: the penalty pre-solve's, or
-        # without hard constraints the given start and the seed solver's
-        warm = pre is not None or (origin != "random" and not hard)
+        # the warm-start tuning suits a start near the answer: without hard constraints the
+        # given start and the seed solver's (with them, IPOPT's own start is the better one)
+        warm = origin != "random" and not hard
         q, its, infeasible, merit = _attempt(current, model, goals, hard, seed, params, warm)
         iterations += its
         streak = streak + 1 if infeasible else 0

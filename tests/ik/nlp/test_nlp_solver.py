@@ -302,3 +302,40 @@ def test_continuous_joints_and_soft_keep_out(tmp_path):
     res = arm.ik(PositionGoal([0.3, 0.3, 0.0]), solver="nlp", constraints=[soft])
     assert not soft.hard and res.constraint_errors[0].hard is False
     assert res.success == all(g.reached for g in res.goal_errors)
+
+
+def test_hard_constraints_use_the_exact_hessian_and_skip_the_regularisation(ur5e, capfd):
+    from armctl.ik.nlp.problem import get_problem
+
+    rng = np.random.default_rng(5)
+    q = ur5e.sample(rng)
+    p = _pos(ur5e, q)
+    cons = [InHalfSpace(p - 0.05 * np.array([0, 0, 1.0]), [0, 0, 1.0])]
+    goal = PositionGoal(p)
+    opts = NLPOptions(time_limit=1.0)
+    assert get_problem(ur5e, (goal,), cons, opts).exact_hessian
+    assert not get_problem(ur5e, (goal,), [], opts).exact_hessian  # goals alone: Gauss-Newton
+    res = ur5e.ik(goal, ur5e.sample(rng), solver="nlp", constraints=cons, options=opts)
+    assert res.success, res.message
+    _check_hard(ur5e, res.q, cons)
+    assert np.linalg.norm(_pos(ur5e, res.q) - p) <= 1e-5
+    # a zero regularisation weight is a valid parameter (no NaN in CasADi's derivatives)
+    res = ur5e.ik(goal, ur5e.sample(rng), solver="nlp", constraints=cons,
+                  options=NLPOptions(time_limit=1.0, regularization=0.0, seed=3))
+    assert res.success, res.message
+    out, err = capfd.readouterr()
+    assert "NaN" not in out + err
+
+
+def test_preferred_posture_still_chooses_with_hard_constraints(panda):
+    # the regularisation applies with hard constraints when a preferred posture is given
+    q_pref = panda.middle()
+    target = _pos(panda, q_pref)
+    cons = [InSphere(target, 0.05)]
+    start = np.clip(q_pref + 0.4, panda.lower, panda.upper)
+    res = panda.ik(PositionGoal(target), start, solver="nlp", constraints=cons,
+                   options=NLPOptions(preferred=tuple(q_pref), regularization=1e-3,
+                                      time_limit=1.0))
+    assert res.success, res.message
+    _check_hard(panda, res.q, cons)
+    assert np.linalg.norm(res.q - q_pref) < 0.05
