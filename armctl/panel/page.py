@@ -32,6 +32,7 @@ from armctl.motion.interpolate import Interpolation
 from armctl.panel.state import ControlPanel, Phase
 from armctl.render.binding import BoundGeometry
 from armctl.render.errors import MissingToolError
+from armctl.render.live import add_arm_meshes
 from armctl.render.scene import obstacle_meshes
 from armctl.spatial import (
     make_transform,
@@ -46,8 +47,6 @@ __all__ = ["CameraView", "PanelPage", "reach_camera"]
 
 logger = logging.getLogger(__name__)
 
-_LINK_RGB = ((230, 159, 0), (143, 163, 184))
-_BASE_RGB = (77, 77, 77)
 _GHOST_RGB = (40, 120, 220)
 _OBSTACLE_RGB = (107, 123, 140)
 #: Period of the joint table and clearance texts while the arm moves [s].
@@ -225,27 +224,12 @@ class PanelPage:
         server.initial_camera.position = cam.position
         server.initial_camera.look_at = cam.look_at
         base = self.arm.spec.base
-        k = 0
         self._ghost_root = scene.add_frame("/ghost", show_axes=False, visible=False)
-        for link in geo.links:
-            meshes = [s.mesh for s in geo.shapes if s.link == link]
-            node = "/arm/" + link.replace("/", "_")
-            ghost = "/ghost/" + link.replace("/", "_")
-            self._frames[link] = scene.add_frame(node, show_axes=False)
-            self._ghost_frames[link] = scene.add_frame(ghost, show_axes=False)
-            if link == base:
-                rgb = _BASE_RGB
-            else:
-                rgb = _LINK_RGB[k % 2]
-                k += 1
-            for i, mesh in enumerate(meshes):
-                v = mesh.vertices.astype(np.float32)
-                f = mesh.faces.astype(np.uint32)
-                scene.add_mesh_simple(f"{node}/shape{i}", v, f, color=rgb, flat_shading=True,
-                                      cast_shadow=False, receive_shadow=False)
-                scene.add_mesh_simple(f"{ghost}/shape{i}", v, f, color=_GHOST_RGB,
-                                      opacity=0.35, flat_shading=True, cast_shadow=False,
-                                      receive_shadow=False)
+        self._frames.update(add_arm_meshes(scene, geo, base, "/arm", cast_shadow=False,
+                                           receive_shadow=False))
+        self._ghost_frames.update(add_arm_meshes(scene, geo, base, "/ghost", _GHOST_RGB,
+                                                 opacity=0.35, cast_shadow=False,
+                                                 receive_shadow=False))
         size = 2.0 * cam.radius
         model = self.panel.robot.collisions
         if model is not None:

@@ -27,15 +27,52 @@ from armctl.render.errors import MissingToolError
 from armctl.spatial import make_transform, matrix_to_quat, quat_to_matrix
 from armctl.typing import Array
 
-__all__ = ["LiveView"]
+__all__ = ["LiveView", "add_arm_meshes"]
 
 
 _LINK_RGB = ((230, 159, 0), (143, 163, 184))
 _BASE_RGB = (77, 77, 77)
 
 
-def _node(link: str) -> str:
-    return "/arm/" + link.replace("/", "_")
+def _node(link: str, root: str = "/arm") -> str:
+    return f"{root}/" + link.replace("/", "_")
+
+
+def add_arm_meshes(scene: Any, geo: BoundGeometry, base: str, root: str = "/arm",
+                   rgb: tuple[int, int, int] | None = None, **mesh: Any) -> dict[str, Any]:
+    """Add one scene node per link under ``root``, holding the link's meshes in its frame.
+
+    Moving the arm then sets one pose per node (see :meth:`LiveView.set_q`).
+
+    Args:
+        scene: A viser scene (``server.scene``).
+        geo: The arm's bound geometry.
+        base: The base link (drawn dark grey).
+        root: The scene path the link nodes go under.
+        rgb: One colour for every link (default: the base grey, the others alternating).
+        **mesh: Further options of viser's ``add_mesh_simple`` (e.g. ``opacity``).
+
+    Returns:
+        The node of each link, by link name.
+    """
+    frames: dict[str, Any] = {}
+    k = 0
+    for link in geo.links:
+        node = _node(link, root)
+        frames[link] = scene.add_frame(node, show_axes=False)
+        if rgb is not None:
+            color = rgb
+        elif link == base:
+            color = _BASE_RGB
+        else:
+            color = _LINK_RGB[k % 2]
+            k += 1
+        shapes = [s.mesh for s in geo.shapes if s.link == link]
+        for i, m in enumerate(shapes):
+            scene.add_mesh_simple(f"{node}/shape{i}", m.vertices.astype(np.float32),
+                                  m.faces.astype(np.uint32), color=color, flat_shading=True,
+                                  **mesh)
+    return frames
 
 
 class LiveView:
@@ -116,20 +153,7 @@ class LiveView:
     # ---- scene --------------------------------------------------------------------------------
     def _build_scene(self, geo: BoundGeometry) -> None:
         scene = self._server.scene
-        base = self.arm.spec.base
-        k = 0
-        for link in geo.links:
-            meshes = [s.mesh for s in geo.shapes if s.link == link]
-            frame = scene.add_frame(_node(link), show_axes=False)
-            self._frames[link] = frame
-            if link == base:
-                rgb = _BASE_RGB
-            else:
-                rgb = _LINK_RGB[k % 2]
-                k += 1
-            for i, mesh in enumerate(meshes):
-                scene.add_mesh_simple(f"{_node(link)}/shape{i}", mesh.vertices.astype(np.float32),
-                                      mesh.faces.astype(np.uint32), color=rgb, flat_shading=True)
+        self._frames.update(add_arm_meshes(scene, geo, self.arm.spec.base))
         size = float(np.ptp(geo.world_vertices(self.q), axis=0).max())
         pose = self.arm.fk(self.q)
         self._tool_axes = scene.add_frame("/tool", axes_length=0.15 * size,
