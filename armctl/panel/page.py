@@ -255,14 +255,21 @@ class PanelPage:
     def _build_gui(self, q: Array) -> None:
         gui = self._server.gui
         h = self._h
-        # Above the tabs, short enough to stay in view: Stop, what is connected, who commands,
-        # what the arm does, the last refusal.
-        h["stop"] = gui.add_button("STOP", color="red", order=0.0,
-                                   hint="decelerate and hold (any tab, at any time)")
+        # The right edge holds a column of two panes, each scrolling on its own: on top Stop
+        # (always in view) with what is connected, who commands, what the arm does and the
+        # last refusal; below it the tabs of the controls.
+        state = gui.add_panel()
+        with state.add_tab("Arm"):
+            h["stop"] = gui.add_button("STOP", color="red",
+                                       hint="decelerate and hold (any tab, at any time)")
+            h["head"] = gui.add_markdown("")
+            h["status"] = gui.add_markdown("")
+            h["error"] = gui.add_markdown("")
+        main = gui.main_panel
+        main.dock_right()
+        state.dock_above(main)
+        h["state_pane"] = state
         h["stop"].on_click(lambda e: self.panel.stop(self._client(e.client_id)))
-        h["head"] = gui.add_markdown("", order=1.0)
-        h["status"] = gui.add_markdown("", order=2.0)
-        h["error"] = gui.add_markdown("", order=3.0)
         tabs = gui.add_tab_group(order=4.0)
         pose = self.arm.fk(q)
         with tabs.add_tab("Target"):

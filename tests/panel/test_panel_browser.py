@@ -211,9 +211,10 @@ def test_a_person_moves_stops_records_plays_and_saves(served, tmp_path: Path):
     _until(lambda: panel.preview is not None and panel.preview.joints is not None, 60.0,
            "the slider's preview")
     assert panel.preview.ok, panel.preview
-    stop = ui.button("STOP")  # at the top of the panel, always in view
+    stop = ui.button("STOP")  # in its own window over the scene, always in view
     ui.press("Move")
     _until(lambda: abs(_servos(robot)[0] - start[0]) > 0.02, 60.0, "the arm to start moving")
+    assert ui.stop_in_view()  # the control panel scrolled to Move: Stop is still in view
     stop.click()
     _until(lambda: panel.phase is Phase.IDLE and panel.outcome is not None, 60.0, "the stop")
     assert panel.outcome is not None and panel.outcome.stopped, panel.outcome
