@@ -112,8 +112,26 @@ def run_motion(args: argparse.Namespace, fn: Any, arm: Arm) -> Any:
     elif guard is not None and guard.signalled:  # a signal after the motion: no exit policy
         robot.close_holding("signal received")
     else:
-        robot.close()
+        close_with_policy(robot)
     return robot, result
+
+
+def close_with_policy(robot: Robot) -> None:
+    """Close the robot with its exit policy, saying on stderr what a park or release does.
+
+    Parking is a motion of its own after the command's, and releasing torque lets a raised arm
+    fall: both are said before they happen.
+    """
+    from armctl.config.motion import ExitPolicy
+
+    policy = robot.exit_policy
+    if policy is ExitPolicy.PARK and not robot.control.paused:
+        print("armctl: exit policy park: moving on to the 'park' pose (the report is of the "
+              "motion before it)", file=sys.stderr, flush=True)
+    elif policy is ExitPolicy.RELEASE:
+        print("armctl: exit policy release: torque off (a raised arm falls)", file=sys.stderr,
+              flush=True)
+    robot.close()
 
 
 class _CycleRecorder:

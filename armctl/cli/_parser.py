@@ -93,9 +93,13 @@ class ArgumentParser(argparse.ArgumentParser):
             self.__dict__["_intermixing"] = False
 
     def _optional_positionals(self) -> bool:
-        """Whether a positional may be empty (``*``, ``?``) and no sub-command follows."""
+        """Whether a positional takes a variable number of words and no sub-command follows.
+
+        ``*``, ``?`` and ``+``: ``move-joints CONFIG 0 -30 --deg 60 ...`` keeps every value.
+        """
         nargs = [a.nargs for a in self._get_positional_actions()]
-        return (any(n in (argparse.ZERO_OR_MORE, argparse.OPTIONAL) for n in nargs)
+        return (any(n in (argparse.ZERO_OR_MORE, argparse.OPTIONAL, argparse.ONE_OR_MORE)
+                    for n in nargs)
                 and not any(n in (argparse.PARSER, argparse.REMAINDER) for n in nargs))
 
     def _no_value_where_no_choice(self, args: list[str]) -> list[str]:

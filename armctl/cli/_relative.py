@@ -106,8 +106,10 @@ def _check_turn(arm: Arm, q: Array, present: Array, rot: Array, args: argparse.N
     With fewer than 6 joints a frame cannot turn about every axis while its origin stays put:
     at a given pose the axes it can turn about form a plane (5 joints), a line (4) or nothing
     (:func:`armctl.robot.jog.turnable_axes`, from the Jacobian). A rotation about an axis
-    outside them is refused here, before anything is solved or planned, naming the axes of the
-    offset's frame it can turn about at the present pose.
+    outside them is refused here, before anything is planned; so is a turn about an axis inside
+    them that IK from ``q`` cannot make in place by the whole angle (to first order is not
+    enough for a large turn). The message names the axes of the offset's frame about which IK
+    makes a turn of the same angle from the present pose.
 
     Args:
         arm: The arm.
@@ -118,8 +120,9 @@ def _check_turn(arm: Arm, q: Array, present: Array, rot: Array, args: argparse.N
         axes: The axes the offset is given in.
 
     Raises:
-        InputError: Saying how many joints move the frame, about which axes it can turn here
-            and what to do instead.
+        InputError: An axis the joints cannot turn about at all here, saying how many joints
+            move the frame, about which axes it can turn by that angle and what to do instead.
+        NoSolutionError: An axis they turn about only for smaller angles, likewise.
     """
     import numpy as np
 
@@ -135,29 +138,53 @@ def _check_turn(arm: Arm, q: Array, present: Array, rot: Array, args: argparse.N
     if float(np.linalg.norm(about)) < 1e-9:  # a half turn: the axis from the symmetric part
         w, v = np.linalg.eigh(rot + np.eye(3))
         about = v[:, int(np.argmax(w))]
+    from armctl.errors import NoSolutionError
+    from armctl.ik import PoseGoal, Tolerance
+    from armctl.spatial import axis_angle_to_matrix
+
     r0 = present[:3, :3]
     frame_axes = r0.T if axes is OffsetFrame.TOOL else np.eye(3)  # rows, base coordinates
     unit = about / float(np.linalg.norm(about))
     axis = r0 @ unit if axes is OffsetFrame.TOOL else unit
     off = turnable_axes(arm, q, np.vstack([axis, frame_axes]), args.frame)
-    if off[0] <= TURN_RESIDUAL:
+    tol = Tolerance(args.tol_pos, args.tol_rot)
+
+    def turns(about_base: Array) -> bool:
+        """Whether IK from ``q`` turns the frame by ``angle`` about the axis, in place."""
+        goal = np.array(present, dtype=float)
+        goal[:3, :3] = axis_angle_to_matrix(about_base, angle) @ r0
+        return arm.ik(PoseGoal(goal, frame=args.frame, tolerance=tol), q0=q,
+                      solver=args.solver).success
+
+    first_order = off[0] <= TURN_RESIDUAL
+    if first_order and turns(axis):
         return
     tool = args.frame in (None, arm.tool)
     who, point = ("its tool", "the tool point") if tool else (
         f"frame {args.frame!r}", "the frame's origin")
-    can = [f"{axes.value} {'xyz'[i]}" for i in range(3) if off[1 + i] <= TURN_RESIDUAL]
-    here = ("at the present pose it can turn about " + " and ".join(can) +
-            " (and the axes between them)" if len(can) > 1 else
-            f"at the present pose it can turn about {can[0]}" if can else
-            f"at the present pose it can turn about no axis of the {axes.value} frame")
+    deg = math.degrees(angle)
+    can = [f"{axes.value} {'xyz'[i]}" for i in range(3)
+           if off[1 + i] <= TURN_RESIDUAL and turns(frame_axes[i])]
+    here = (f"from the present pose it can turn {deg:.3g} deg about " + " and ".join(can)
+            if can else f"from the present pose it can turn {deg:.3g} deg about no axis of the "
+            f"{axes.value} frame")
     shown = np.round(unit, 3).tolist()
-    raise InputError(
-        f"--relative {axes.value} --rpy: arm {arm.name!r} moves {who} with {len(chain)} joints, "
-        f"too few to turn it about any axis while holding {point} in place; the rotation asked "
-        f"for is about {shown} in the {axes.value} frame, and {here}. Turn about one of those, "
-        "move single joints ('armctl jog', 'armctl move-joints'), give an absolute goal with "
-        "--xyz and --direction AXIS DX DY DZ, or add --force-pose to try anyway",
-        {"joints": len(chain), "axis": shown, "turnable": can})
+    instead = ("move single joints ('armctl jog', 'armctl move-joints'), give an absolute goal "
+               "with --xyz and --direction AXIS DX DY DZ, or add --force-pose to try anyway")
+    details = {"joints": len(chain), "axis": shown, "turnable": can}
+    if not first_order:
+        raise InputError(
+            f"--relative {axes.value} --rpy: arm {arm.name!r} moves {who} with {len(chain)} "
+            f"joints, too few to turn it about any axis while holding {point} in place; the "
+            f"rotation asked for is about {shown} in the {axes.value} frame, which its joints "
+            f"cannot turn about at the present pose at all, and {here}. Turn about one of "
+            f"those, {instead}", details)
+    raise NoSolutionError(
+        f"--relative {axes.value} --rpy: arm {arm.name!r} moves {who} with {len(chain)} joints: "
+        f"at the present pose they turn it about {shown} in the {axes.value} frame only for "
+        f"small angles, and a turn of {deg:.3g} deg cannot hold {point} within "
+        f"{args.tol_pos * 1000:g} mm (--tol-pos); nothing was moved. Turn in smaller steps, "
+        + (f"{here}, " if can else "") + f"or {instead}", details)
 
 
 def relative_goal(arm: Arm, q: Array, args: argparse.Namespace, axes: OffsetFrame) -> Goal:
@@ -169,8 +196,10 @@ def relative_goal(arm: Arm, q: Array, args: argparse.Namespace, axes: OffsetFram
 
     Raises:
         InputError: ``--rpy`` values that can only be degrees without ``--deg``; (without
-            ``--force-pose``) a rotation that fewer than 6 joints cannot make in place at
-            ``q``.
+            ``--force-pose``) a rotation about an axis that fewer than 6 joints cannot turn
+            about in place at ``q``.
+        NoSolutionError: (without ``--force-pose``) a rotation that fewer than 6 joints make
+            in place only for smaller angles.
     """
     import numpy as np
 

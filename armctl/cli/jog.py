@@ -76,7 +76,7 @@ def cmd_jog(args: argparse.Namespace) -> int:
     from armctl.cli import _checks
     from armctl.cli._jog_loop import JogEnd, StatusLine, final_state, jog_loop
     from armctl.cli._keys import KeyReader
-    from armctl.cli._motion_run import open_robot
+    from armctl.cli._motion_run import close_with_policy, open_robot
     from armctl.motion import AngleUnit, check_speed
     from armctl.robot.jog import Jogger, JogSteps
     from armctl.robot.teach import ExistingFile, TeachSession
@@ -133,9 +133,11 @@ def cmd_jog(args: argparse.Namespace) -> int:
     if end is JogEnd.SIGNAL or (guard is not None and guard.signalled):
         robot.close_holding("a stop signal ended jog")
     else:
-        robot.close()
+        close_with_policy(robot)
     data.update({"file": args.output, "ended": end.value,
                  "written": session.written if session is not None else False})
+    if end is JogEnd.SIGNAL or (guard is not None and guard.signalled):
+        data["ok"] = False  # ended by a stop signal: the command exits 5 (or 128 + N)
     n = data["keyframes"]
     text = (f"{data['steps']} steps, {data['refused']} refused"
             + (f"; {n} keyframes in {args.output}" if args.output else "")

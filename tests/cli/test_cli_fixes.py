@@ -194,9 +194,27 @@ def test_rotation_offsets_of_5_joint_arms_are_checked_at_the_present_pose(
     line = err.strip().splitlines()[-1]  # after the simulated bus's banner: nothing moved
     assert line.startswith("armctl: error: ") and err.count("error") == 1, err
     assert code == 2 and "with 5 joints" in line and "--force-pose" in line
-    possible = [f"tool {'xyz'[k]}" for k in range(3) if residual[k] < 0.01]
-    assert possible and all(p in line for p in possible), (line, residual)
-    assert f"tool {'xyz'[impossible]}" not in line.split("it can turn about")[1]
+    assert "cannot turn about at the present pose at all" in line
+    named = re.findall(r"tool ([xyz])", line.split("can turn 2 deg about")[1])
+    possible = {"xyz"[k] for k in range(3) if residual[k] < 0.01}
+    assert set(named) <= possible, (line, residual)  # named only where the joints can turn
+    for k in named:  # and a turn about each named axis is made
+        rpy = ["0", "0", "0"]
+        rpy["xyz".index(k)] = "2"
+        code, _, err = run(capsys, "move-to-pose", name, "--relative", "tool", "--rpy", *rpy,
+                           "--deg", "--sim", "--dry-run")
+        assert code == 0, err
+
+
+def test_large_turn_of_a_5_joint_arm_is_refused_with_smaller_steps(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run(capsys, "move-to-pose", "so101", "--relative", "base", "--rpy", "0", "30",
+                       "0", "--deg", "--sim", "--dry-run")
+    line = err.strip().splitlines()[-1]
+    assert code == 3 and "only for small angles" in line and "smaller steps" in line, err
+    code, _, err = run(capsys, "move-to-pose", "so101", "--relative", "base", "--rpy", "0", "2",
+                       "0", "--deg", "--sim", "--dry-run")
+    assert code == 0, err
 
 
 def test_koch_turn_about_its_roll_axis_is_made_in_place(capsys: pytest.CaptureFixture[str]

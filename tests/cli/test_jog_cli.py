@@ -256,6 +256,7 @@ def test_space_stops_a_step_and_ctrl_c_quits_holding(terminals: list[Terminal],
     assert term.proc.stdout is not None
     data = json.loads(term.proc.stdout.read())
     assert data["ended"] == "signal" and data["steps"] == 0
+    assert data["ok"] is False  # as the exit code says
     assert "Traceback" not in term.screen
 
 
