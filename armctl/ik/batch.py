@@ -256,7 +256,7 @@ def solve_batch(
     ma = model_arrays(model)
     method = _METHODS[method_name]
     # every problem starts its generator as a call with these options would (fresh entropy
-    # for each when the seed is None), so that problem i gets the answer of the call
+    # for each when the random seed is None), so that problem i gets the answer of the call
     # solve(model, sets[i], starts[i], solver, options=options)
     seeds = (np.full(n, int(seed_state(options.seed)[0]), dtype=np.uint64)
              if options.seed is not None else
