@@ -233,7 +233,7 @@ def bench_arm(name: str, n: int, n_stream: int) -> dict[str, object]:
     problem = get_problem(arm, (PoseGoal(targets[0]),), (), opts)
     _ = problem.solvers[True], problem.solvers[False]  # both instances (built on first use)
     build = time.perf_counter() - t0
-    arm.ik(targets[0], solver="nlp", options=opts)  # warm the seeding solver's JIT
+    arm.ik(targets[0], solver="nlp", options=opts)  # warm the JIT of the solver that seeds NLP
     ok, times, restarts = 0, [], []
     for t in targets:
         res = arm.ik(PoseGoal(t), solver="nlp", options=opts)

@@ -89,9 +89,9 @@ def _merit(model: KinematicModel, goals: tuple[Goal, ...], hard: Sequence[Constr
 
 def _seeds(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: NLPOptions,
            overrun: list[float]) -> Iterator[tuple[str, Array]]:
-    """Starts: ``q0``, the seeding solver's answer, then random ones.
+    """Starts: ``q0``, the answer of the solver that seeds NLP, then random ones.
 
-    ``overrun`` collects the seeding solver's time beyond its own budget (its one-time
+    ``overrun`` collects that solver's time beyond its own budget (its one-time
     compilation), which is not charged to the solve.
     """
     yield "start", q0
@@ -176,7 +176,7 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
                 twin = twin or get_problem(model, goals, cons, replace(opts, method=Method.IPOPT))
                 current = twin
         # the warm-start tuning suits a start near the answer: without hard constraints the
-        # given start and the seeding solver's (with them, IPOPT's own start is the better one)
+        # given start and its seeding solver's (with them, IPOPT's own start is the better one)
         warm = origin != "random" and not hard
         q, its, infeasible, merit = _attempt(current, model, goals, hard, seed, params, warm)
         iterations += its
