@@ -9,10 +9,6 @@ files without a ``bus:`` section.
 from __future__ import annotations
 
 import json
-import os
-import re
-import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -20,14 +16,13 @@ from typing import Any
 import numpy as np
 import pytest
 from armctl_testpaths import CONFIGS, DATA
+from sim_process import SO_JOINTS, SimProcess
 
 from armctl.cli import main
 from armctl.servo.sim.bus import SimulatedBus
 
 pytestmark = pytest.mark.timeout(90)
 
-SO_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll",
-             "gripper")
 #: One STS3215 tick (4096 per turn) [rad], and a little for the servo's dead band.
 TICK = 2 * np.pi / 4096
 NO_PORT = "/dev/armctl-test-no-such-port"
@@ -47,39 +42,6 @@ def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, Any, str]:
     code = main([*argv, "--json"])
     out, err = capsys.readouterr()
     return code, json.loads(out) if out.strip() else None, err
-
-
-class SimProcess:
-    """``armctl sim so101`` in its own process."""
-
-    def __init__(self) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", "armctl", "sim", "so101", "--json"],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                                     env=dict(os.environ, PYTHONUNBUFFERED="1"))
-        assert self.proc.stdout is not None
-        head = ""
-        while not head.rstrip().endswith("}"):
-            line = self.proc.stdout.readline()
-            assert line, "armctl sim ended before it printed its port"
-            head += line
-        self.port: str = json.loads(head)["port"]
-
-    def joints(self) -> np.ndarray:
-        """The servos' joint values [rad] as the simulator itself reports them ('get')."""
-        assert self.proc.stdin is not None and self.proc.stdout is not None
-        self.proc.stdin.write("get\n")
-        self.proc.stdin.flush()
-        values = {}
-        for _ in SO_JOINTS:
-            m = re.match(r"(\w+) \(id \d+\): (\S+)", self.proc.stdout.readline())
-            assert m is not None
-            values[m.group(1)] = float(m.group(2))
-        return np.array([values[n] for n in SO_JOINTS])
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
-        self.proc.wait(10)
 
 
 @pytest.fixture

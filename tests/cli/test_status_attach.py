@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -23,6 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 from armctl_testpaths import DATA
+from sim_process import SO_JOINTS, SimProcess
 
 from armctl.cli import main
 from armctl.robot.live_publisher import LivePublisher, hello_for
@@ -31,8 +31,6 @@ from armctl.robot.live_watch import attach
 
 pytestmark = pytest.mark.timeout(120)
 
-SO_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll",
-             "gripper")
 GOAL = (0.4, -0.2, 0.2, 0.1, 0.2, 0.2)
 #: One STS3215 tick (4096 per turn) [rad].
 TICK = 2 * np.pi / 4096
@@ -53,47 +51,9 @@ def _env() -> dict[str, str]:
     return dict(os.environ, PYTHONUNBUFFERED="1")
 
 
-class Sim:
-    """``armctl sim so101`` in its own process; ``joints()`` asks the simulator itself."""
-
-    def __init__(self) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", "armctl", "sim", "so101", "--json"],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                                     env=_env())
-        assert self.proc.stdout is not None
-        head = ""
-        while not head.rstrip().endswith("}"):
-            line = self.proc.stdout.readline()
-            assert line, "armctl sim ended before it printed its port"
-            head += line
-        self.port: str = json.loads(head)["port"]
-
-    def joints(self) -> np.ndarray:
-        assert self.proc.stdin is not None and self.proc.stdout is not None
-        self.proc.stdin.write("get\n")
-        self.proc.stdin.flush()
-        values = {}
-        for _ in SO_JOINTS:
-            m = re.match(r"(\w+) \(id \d+\): (\S+)", self.proc.stdout.readline())
-            assert m is not None
-            values[m.group(1)] = float(m.group(2))
-        return np.array([values[n] for n in SO_JOINTS])
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            assert self.proc.stdin is not None
-            self.proc.stdin.write("quit\n")
-            self.proc.stdin.flush()
-            try:
-                self.proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-
-
 @pytest.fixture
-def sim(runtime: Path) -> Iterator[Sim]:
-    s = Sim()
+def sim(runtime: Path) -> Iterator[SimProcess]:
+    s = SimProcess()
     try:
         yield s
     finally:
@@ -138,7 +98,7 @@ def _wait_for_owner(port: str, mover: subprocess.Popen[str], timeout: float = 60
     raise AssertionError("the moving command never published its motion")
 
 
-def test_status_attaches_to_a_running_motion(sim: Sim) -> None:
+def test_status_attaches_to_a_running_motion(sim: SimProcess) -> None:
     start = sim.joints()
     watch = _warm(["status", "so101", "--port", sim.port, "--json", "--follow",
                    "--interval", "0.1"])
@@ -192,7 +152,7 @@ def test_status_attaches_to_a_running_motion(sim: Sim) -> None:
     assert code == 0
 
 
-def test_a_port_held_by_another_program_is_named(sim: Sim,
+def test_a_port_held_by_another_program_is_named(sim: SimProcess,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     holder = subprocess.Popen(
         [sys.executable, "-c",
@@ -381,7 +341,7 @@ def test_an_owner_that_sends_nothing_is_reported(runtime: Path,
 
 
 def test_an_owner_still_opening_the_port_is_waited_for(
-        sim: Sim, capsys: pytest.CaptureFixture[str]) -> None:
+        sim: SimProcess, capsys: pytest.CaptureFixture[str]) -> None:
     """The port is locked by an armctl command that starts publishing only a moment later."""
     code = ("import fcntl, os, sys, time\n"
             "from armctl.robot.live_publisher import LivePublisher, hello_for\n"
