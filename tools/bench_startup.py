@@ -41,6 +41,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _benchdoc import write_section
 
+from armctl.cli._precompile import KEYFRAMES  # the keyframe program its first runs play
+
 ROOT = Path(__file__).resolve().parent.parent
 
 #: (command line, target [s] warm or None).
@@ -76,16 +78,6 @@ FIRST = (
     ["move-to-pose", "so101", "--xyz", "0.2", "0.0", "0.05", "--direction", "z", "0", "0", "-1"],
 )
 
-_KEYFRAMES = """\
-armctl_keyframes: 1
-arm: so101
-units: {angle: deg, length: m}
-joints: [shoulder_pan, shoulder_lift, elbow_flex, wrist_flex, wrist_roll]
-keyframes:
-- {name: start, q: [0, -30, 60, 20, 0], dwell: 0.1}
-- {name: above, pose: {xyz: [0.22, 0.0, 0.12]}}
-- {name: down, pose: {xyz: [0.2, 0.0, 0.05], rpy: [180, 0, 180]}}
-"""
 
 _DRIVER = "import sys; from armctl.cli import main; sys.exit(main())"
 
@@ -232,7 +224,7 @@ def installed(tree: Path) -> tuple[float, float | None, list[tuple[str, float, i
             (snapshot / f.relative_to(package)).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(f, snapshot / f.relative_to(package))
         keys = work / "keys.yaml"
-        keys.write_text(_KEYFRAMES, encoding="utf-8")
+        keys.write_text(KEYFRAMES, encoding="utf-8")
         for argv in FIRST:
             for f in _caches(package):  # the cache as the install left it
                 f.unlink()

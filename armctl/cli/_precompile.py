@@ -23,10 +23,10 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["GROUPS", "main", "run_group"]
+__all__ = ["GROUPS", "KEYFRAMES", "main", "run_group"]
 
 #: A keyframe program for ``play``: joint and pose keyframes (the two kinds play solves).
-_KEYFRAMES = """\
+KEYFRAMES = """\
 armctl_keyframes: 1
 arm: so101
 units: {angle: deg, length: m}
@@ -166,7 +166,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="armctl-precompile-") as tmp:
         os.environ["ARMCTL_HOME"] = tmp  # calibrations of the simulated arms go here
         files = {"keys": Path(tmp) / "keys.yaml", "scene": Path(tmp) / "scene.yaml"}
-        files["keys"].write_text(_KEYFRAMES, encoding="utf-8")
+        files["keys"].write_text(KEYFRAMES, encoding="utf-8")
         files["scene"].write_text(_SCENE, encoding="utf-8")
         cwd = os.getcwd()
         os.chdir(tmp)

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 from armctl_testpaths import CONFIGS
+from sim_process import SimProcess
 
 import armctl.cli._motion_report as motion_report
 from armctl.arm import load_arm
@@ -37,41 +38,15 @@ JOINTS = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_ro
 ENV = dict(os.environ, PYTHONUNBUFFERED="1")
 
 
-class Sim:
+class Sim(SimProcess):
     """``armctl sim so101`` in a subprocess, and an arm config that points at its pty."""
 
     def __init__(self, tmp_path: Path):
-        self.proc = subprocess.Popen([sys.executable, "-m", "armctl", "sim", "so101", "--json"],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                                     env=ENV)
-        assert self.proc.stdout is not None
-        head = ""
-        while not head.rstrip().endswith("}"):
-            line = self.proc.stdout.readline()
-            assert line, "armctl sim ended before it printed its port"
-            head += line
-        port = json.loads(head)["port"]
+        super().__init__()
         text = (CONFIGS / "so101.yaml").read_text(encoding="utf-8")
         assert text.count("port: sim") == 1
         self.config = tmp_path / "so101.yaml"
-        self.config.write_text(text.replace("port: sim", f"port: {port}"), encoding="utf-8")
-
-    def joints(self) -> np.ndarray:
-        """The servos' present joint values [rad], read by the simulator itself."""
-        assert self.proc.stdin is not None and self.proc.stdout is not None
-        self.proc.stdin.write("get\n")
-        self.proc.stdin.flush()
-        values = {}
-        for _ in JOINTS:
-            m = re.match(r"(\w+) \(id \d+\): (\S+)", self.proc.stdout.readline())
-            assert m is not None
-            values[m.group(1)] = float(m.group(2))
-        return np.array([values[n] for n in JOINTS])
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
-        self.proc.wait(10)
+        self.config.write_text(text.replace("port: sim", f"port: {self.port}"), encoding="utf-8")
 
 
 @pytest.fixture
