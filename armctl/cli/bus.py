@@ -99,7 +99,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("calibrate", help="measure zero offsets and ranges; writes the "
                                          "calibration file beside the config")
     add_config(p)
-    _add_bus_args(p, calibrated=False)
+    # no --sim: a calibration of the built-in simulated bus would overwrite the arm's file
+    _add_bus_args(p, calibrated=False, sim=False)
     p.add_argument("--reference", default="zero",
                    help="reference pose: 'zero' or the name of a pose in the config")
     p.add_argument("-o", "--output", help="calibration file (default: beside the config)")
@@ -119,8 +120,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_calibrate)
 
 
-def _add_bus_args(p: argparse.ArgumentParser, calibrated: bool = True) -> None:
-    p.add_argument("--port", help="override the config's port (e.g. the pty of 'armctl sim')")
+def _add_bus_args(p: argparse.ArgumentParser, calibrated: bool = True,
+                  sim: bool = True) -> None:
+    """``--port`` (and ``--sim`` unless ``sim`` is false) of a servo command."""
+    if sim:
+        where = p.add_mutually_exclusive_group()
+        where.add_argument("--port",
+                           help="override the config's port (e.g. the pty of 'armctl sim')")
+        where.add_argument("--sim", action="store_true",
+                           help="use the built-in simulated bus (also for a config without a "
+                                "'bus:' section)")
+    else:
+        p.add_argument("--port", help="override the config's port (e.g. the pty of 'armctl sim')")
     if calibrated:
         p.add_argument("--no-calibration", action="store_true",
                        help="ignore the calibration file")

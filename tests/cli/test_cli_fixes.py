@@ -52,6 +52,8 @@ def one_error_line(err: str) -> str:
     ["reboot", "so101", "--port", "sim", "wrist_flex", "gripper"],
     ["reboot", "so101", "wrist_flex", "--port", "sim", "gripper"],
     ["reboot", "--port", "sim", "so101", "wrist_flex", "gripper"],
+    ["reboot", "so101", "--sim", "wrist_flex", "gripper"],
+    ["reboot", "so101", "wrist_flex", "gripper", "--sim"],
 ])
 def test_reboot_takes_the_joints_wherever_the_port_is(capsys: pytest.CaptureFixture[str],
                                                       argv: list[str]) -> None:
@@ -79,6 +81,21 @@ def test_render_takes_joint_values_after_its_options(tmp_path: Path,
     assert code == 0, err
     assert data["q"] == plain["q"] and math.degrees(data["q"][0]) == pytest.approx(90.0)
     assert data["tool_position"] == plain["tool_position"]
+
+
+def test_torque_and_reboot_take_sim_but_not_with_port(capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    code, data, err = run_json(capsys, "torque", "so101", "off", "--sim")
+    assert code == 0, err
+    assert set(data["torque"].values()) == {False}
+    code, _, err = run(capsys, "reboot", "so101", "--sim", "--port", "sim")
+    assert code == 2 and "not allowed with argument" in one_error_line(err)
+
+
+def test_calibrate_takes_no_sim(capsys: pytest.CaptureFixture[str]) -> None:
+    # a calibration measured on the built-in simulated bus would overwrite the arm's own file
+    code, _, err = run(capsys, "calibrate", "so101", "--sim")
+    assert code == 2 and "--sim" in err
 
 
 def test_reboot_without_config_still_shows_the_usage(capsys: pytest.CaptureFixture[str]) -> None:
