@@ -54,10 +54,10 @@ class ControlState:
         paused: Whether a pause is asked for (the arm holds, or is slowing to a stop).
         speed: The speed override asked for [-] (1: as planned).
         moving: Whether a motion is streaming.
-        rate: How fast the running motion advances along its plan now [-] (0: held; ``nan``
-            when no motion runs).
+        rate: How fast the running motion advances along its plan now [-] (0: held;
+            ``None`` when no motion runs or it has not streamed a cycle yet).
         cap: The largest override the running plan allows within the joint limits [-]
-            (``nan`` when no motion runs or it is not known yet).
+            (``None`` when no motion runs or it is not known yet).
         applied: The override the running motion heads for: ``speed``, or ``cap`` when
             ``speed`` is above it [-] (``speed`` when no motion runs).
         capped: Whether the override asked for is above the running plan's cap.
@@ -67,8 +67,8 @@ class ControlState:
     paused: bool
     speed: float
     moving: bool
-    rate: float
-    cap: float
+    rate: float | None
+    cap: float | None
     applied: float
     capped: bool
     held: bool
@@ -235,8 +235,10 @@ class MotionControl:
             cap = self._cap
             applied = min(self._speed, cap) if math.isfinite(cap) else self._speed
             return ControlState(
-                paused=self._paused, speed=self._speed, moving=moving, rate=self._rate,
-                cap=cap, applied=applied, capped=math.isfinite(cap) and self._speed > cap,
+                paused=self._paused, speed=self._speed, moving=moving,
+                rate=self._rate if math.isfinite(self._rate) else None,
+                cap=cap if math.isfinite(cap) else None, applied=applied,
+                capped=math.isfinite(cap) and self._speed > cap,
                 held=moving and self._paused and self._rate == 0.0)
 
     # ---- the streaming loop's side --------------------------------------------------------

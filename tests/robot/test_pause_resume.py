@@ -197,7 +197,8 @@ def test_speed_above_the_limits_is_capped_and_reported(robot: Robot,
     assert res.stats.elapsed == pytest.approx(fastest.duration, abs=1.5 * dt)
     peaks = assert_within_limits(robot, res.log_cmd)
     assert max(peaks.values()) > 0.9  # at a limit: the cap is not needlessly low
-    assert robot.control.state().moving is False
+    idle = robot.control.state()
+    assert idle.moving is False and idle.cap is None and idle.rate is None
     assert robot.control.speed == 5.0  # kept for later motions
 
 
@@ -334,7 +335,9 @@ def test_stop_without_a_motion_does_nothing() -> None:
     control = MotionControl()
     assert control.stop() is False
     st = control.state()
-    assert not st.moving and math.isnan(st.rate) and math.isnan(st.cap) and not st.held
+    # idle: no rate and no cap to report (None, not NaN: a JSON-safe "nothing runs")
+    assert not st.moving and st.rate is None and st.cap is None and not st.held
+    assert st.applied == st.speed and not st.capped
 
 
 @pytest.mark.realtime
