@@ -79,12 +79,20 @@ class MotionLog:
 
 
 def check_log_target(path: str | Path) -> Path:
-    """Refuse a log file that exists or whose folder is missing (before anything moves).
+    """Refuse a log file that exists, whose folder is missing or not named ``.csv``.
+
+    Checked before anything moves.
 
     Raises:
-        ConfigError: The file exists (a log is never overwritten) or its folder is missing.
+        ConfigError: The file exists (a log is never overwritten), its folder is missing, or
+            its name does not end in ``.csv`` (the log is CSV; another suffix is most often a
+            mix-up with a keyframe file or a picture).
     """
     p = Path(path)
+    if p.suffix.lower() != ".csv":
+        raise ConfigError(f"a motion log is a CSV file, but {p.name!r} does not end in '.csv'; "
+                          "nothing was moved", KeyPath(p),
+                          f"name it {p.stem or 'motion'}.csv (keyframes are written with -o)")
     if p.exists():
         raise ConfigError("the motion log file already exists; nothing was moved", KeyPath(p),
                           "choose another name, or delete the old log first")

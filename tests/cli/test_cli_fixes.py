@@ -313,6 +313,17 @@ def test_teach_refuses_an_existing_log_before_the_bus(tmp_path: Path,
     assert log.read_text() == "keep me\n"
 
 
+@pytest.mark.parametrize("verb", [["teach", "so101", "-o", "t.yaml"], ["home", "so101"]])
+def test_a_log_not_named_csv_is_refused_before_the_bus(tmp_path: Path, verb: list[str],
+                                                       capsys: pytest.CaptureFixture[str]
+                                                       ) -> None:
+    argv = [str(tmp_path / a) if a.endswith(".yaml") else a for a in verb]
+    code, _, err = run(capsys, *argv, "--port", "/dev/armctl-no-such-port", "--log",
+                       str(tmp_path / "session.yaml"))
+    assert code == 2 and "does not end in '.csv'" in err and "session.csv" in err
+    assert not any(tmp_path.iterdir())
+
+
 # ---- 7. teleop with LEADER and FOLLOWER swapped -----------------------------------------------
 def test_teleop_refuses_swapped_arms(capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = run(capsys, "teleop", "so101", "so101_leader", "--sim", "--duration", "0.1")

@@ -63,6 +63,10 @@ def test_a_log_target_must_be_new_in_an_existing_folder(tmp_path: Path) -> None:
         check_log_target(tmp_path / "old.csv")
     with pytest.raises(ConfigError, match="does not exist"):
         check_log_target(tmp_path / "nope" / "new.csv")
+    for name in ("run.yaml", "run.txt", "run"):
+        with pytest.raises(ConfigError, match=r"does not end in '\.csv'"):
+            check_log_target(tmp_path / name)
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["old.csv"]  # nothing written
 
 
 def test_time_going_back_is_refused_with_its_line(tmp_path: Path) -> None:
