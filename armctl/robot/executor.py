@@ -328,10 +328,14 @@ class Executor:
         for sid, n in out.items():
             if n >= max(RETRY_WARNING_MIN, RETRY_WARNING * cycles):
                 joint = self._joint_of(sid)
+                spec = getattr(self.bus, "spec", None)
+                hint = ("this is the built-in simulated bus, so no hardware is involved: a fault "
+                        "injected into the simulator, or a machine too busy to answer in time"
+                        if getattr(spec, "simulated", False) else
+                        "check its cable, connectors and power supply")
                 logger.warning("servo %d%s needed %d retries in %d cycles: its replies are "
-                               "missing, corrupt or late; check its cable, connectors and "
-                               "power supply", sid, f" (joint {joint!r})" if joint else "", n,
-                               cycles)
+                               "missing, corrupt or late; %s", sid,
+                               f" (joint {joint!r})" if joint else "", n, cycles, hint)
         return out
 
     def _read(self) -> Array:
