@@ -17,7 +17,7 @@ from armctl.ik.goals import Goal, GoalLike, Tolerance, as_goals
 if TYPE_CHECKING:
     from armctl.ik.batch import IKBatchResult, solve_batch
     from armctl.ik.nullspace import KeepOut, NullSpace
-    from armctl.ik.options import IKOptions
+    from armctl.ik.options import CCDWeights, IKOptions
     from armctl.ik.registry import (
         Capabilities,
         SolverInfo,
@@ -41,7 +41,7 @@ if TYPE_CHECKING:
 _LAZY = {
     "IKBatchResult": "batch", "solve_batch": "batch",
     "KeepOut": "nullspace", "NullSpace": "nullspace",
-    "IKOptions": "options",
+    "CCDWeights": "options", "IKOptions": "options",
     "Capabilities": "registry", "SolverInfo": "registry", "available_solvers": "registry",
     "get_solver": "registry", "solve": "registry", "solver_info": "registry",
     "solver_infos": "registry",
@@ -60,6 +60,7 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "CCDWeights",
     "Capabilities",
     "ConstraintViolation",
     "Goal",

@@ -19,15 +19,15 @@ from armctl.kinematics._kernels import _step, fk_into
 @nb.njit(**NJIT)
 def ccd_coefficients(w: np.ndarray, o: np.ndarray, gt: np.ndarray, gd: np.ndarray,
                      gw: np.ndarray, mask: np.ndarray, j: int, pose: np.ndarray,
-                     rho2: float) -> tuple[float, float, float]:
+                     rho2: float, w1: float = 1.0) -> tuple[float, float, float]:
     """``k1, k2, k3`` of ``g(t) = k1 (1 - cos t) + k2 cos t + k3 sin t`` for revolute joint ``j``.
 
     ``g`` is the lecture's objective ``w1 g1 + w2 g2`` summed over the goals that ``j`` moves:
     ``g1`` the dot product of the joint-to-goal and rotated joint-to-effector vectors, ``g2`` the
     sum over the constrained axes of goal-axis . rotated current axis; ``w1`` is the goal weight
-    and ``w2`` the goal weight times ``rho2`` [m^2]. Rotating a vector ``a`` about the unit axis
-    ``w`` by ``t`` (Rodrigues) gives ``b . R a = (w.a)(w.b)(1 - cos t) + (a.b) cos t +
-    b.(w x a) sin t``.
+    times ``w1`` (1 by default) and ``w2`` the goal weight times ``rho2`` [m^2]. Rotating a
+    vector ``a`` about the unit axis ``w`` by ``t`` (Rodrigues) gives
+    ``b . R a = (w.a)(w.b)(1 - cos t) + (a.b) cos t + b.(w x a) sin t``.
     """
     k1 = 0.0
     k2 = 0.0
@@ -41,9 +41,9 @@ def ccd_coefficients(w: np.ndarray, o: np.ndarray, gt: np.ndarray, gd: np.ndarra
             # part 0: position; 1-3: orientation axes (all three for orientation/pose goals,
             # the tool axis for a direction goal)
             if part == 0:
-                if not has_position(t):
+                if not has_position(t) or w1 == 0.0:
                     continue
-                wt = gw[g]
+                wt = gw[g] * w1
                 a0, a1, a2 = p[0, 3] - o[0], p[1, 3] - o[1], p[2, 3] - o[2]
                 b0, b1, b2 = gd[g, 0] - o[0], gd[g, 1] - o[1], gd[g, 2] - o[2]
             elif t == ORIENTATION or t == POSE:
@@ -105,8 +105,11 @@ def joint_frames(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, world: np.nd
 def _ccd_sweep(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, jd: np.ndarray,
                parent: np.ndarray, fd: np.ndarray, paths: np.ndarray, gf: np.ndarray,
                gt: np.ndarray, gd: np.ndarray, gw: np.ndarray, mask: np.ndarray, rho2: float,
-               world: np.ndarray, pose: np.ndarray) -> None:
+               world: np.ndarray, pose: np.ndarray, w1: float = 1.0) -> None:
     """One CCD sweep over the joints from the tips to the base.
+
+    ``w1`` and ``rho2`` [m^2] weight the position and orientation terms (:func:`ccd_coefficients`);
+    a prismatic joint slides for the position alone, so not at all when ``w1`` is 0.
 
     Joints are visited in decreasing index; parents come first in the joint order, so turning
     joint ``j`` never moves the axis of a joint visited later, and the goal poses are updated
@@ -124,6 +127,8 @@ def _ccd_sweep(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, jd: np.ndarr
             w[i] = world[j, i, 0] * ax[0] + world[j, i, 1] * ax[1] + world[j, i, 2] * ax[2]
             o[i] = world[j, i, 3]
         if jd[j, 15] > 0.5:  # prismatic: the closed-form least-squares slide along w
+            if w1 == 0.0:
+                continue
             num = 0.0
             den = 0.0
             for g in range(gf.shape[0]):
@@ -142,7 +147,7 @@ def _ccd_sweep(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, jd: np.ndarr
                     for i in range(3):
                         pose[g, i, 3] += t * w[i]
             continue
-        k1, k2, k3 = ccd_coefficients(w, o, gt, gd, gw, mask, j, pose, rho2)
+        k1, k2, k3 = ccd_coefficients(w, o, gt, gd, gw, mask, j, pose, rho2, w1)
         # a joint that cannot change the objective (e.g. a roll axis through the goal point of
         # a position goal) has k2 - k1 = k3 = 0 up to round-off: leave it where it is
         if math.hypot(k3, k2 - k1) <= 1e-12 * (abs(k1) + abs(k2) + abs(k3)) + 1e-300:

@@ -65,9 +65,9 @@ from armctl.ik._residual import (
 from armctl.ik._steps import (
     _cap,
     _clamp,
-    _descend,
     _dls_bounded,
     _dls_step,
+    _jt_apply,
     _jt_step,
     _pinv_step,
     _wrap_into,
@@ -122,7 +122,9 @@ P_MU_UP = 14  # DLS: mu is multiplied by this after a step that does not lower E
 P_PATIENT = 15  # attempts after this many use the patient stall test (P_WINDOW2, P_RATIO2)
 P_WINDOW2 = 16  # the stall window of the later attempts [iterations]
 P_RATIO2 = 17  # the stall ratio of the later attempts
-N_PARAMS = 18
+P_CCD_W1 = 18  # CCD: weight of the position term (the lecture's w1; P_RHO2 is w2) [-]
+P_JT_GAIN = 19  # J^T: the lecture's fixed gain alpha [rad/m^2]; 0: the optimal step length
+N_PARAMS = 20
 
 
 
@@ -393,20 +395,20 @@ def solve(q0: np.ndarray, arm: ArmGroup, goals: GoalGroup, run: RunGroup,
                         q[i] = qn[i]
                     en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, True)
             elif method == JT:
-                _jt_step(jac, e, m, n, tmp, dq)
+                _jt_step(jac, e, m, n, tmp, dq, prm[P_JT_GAIN])
                 _cap(dq, max_step)
-                _descend(q, qn, dq, en, lower, upper, jd, fd, paths, gf, gt, gd, gw, rw, pose2,
-                         jg, e2, jac)
+                _jt_apply(q, qn, dq, en, prm[P_JT_GAIN], lower, upper, jd, fd, paths, gf, gt,
+                          gd, gw, rw, pose2, jg, e2, jac)
                 en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, True)
             else:
                 _ccd_sweep(q, lower, upper, jd, parent, fd, paths, gf, gt, gd, gw, mask,
-                           prm[P_RHO2], world, pose)
+                           prm[P_RHO2], world, pose, prm[P_CCD_W1])
                 if method == CCD_JT:
                     en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, True)
-                    _jt_step(jac, e, m, n, tmp, dq)
+                    _jt_step(jac, e, m, n, tmp, dq, prm[P_JT_GAIN])
                     _cap(dq, max_step)
-                    _descend(q, qn, dq, en, lower, upper, jd, fd, paths, gf, gt, gd, gw, rw,
-                             pose2, jg, e2, jac)
+                    _jt_apply(q, qn, dq, en, prm[P_JT_GAIN], lower, upper, jd, fd, paths, gf,
+                              gt, gd, gw, rw, pose2, jg, e2, jac)
                 en = _residual(q, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac, False)
             if (it + 1) % window == 0 and not ns_found:
                 if en > ratio * e_window:

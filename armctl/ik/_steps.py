@@ -191,16 +191,22 @@ def _pinv_step(jac: np.ndarray, e: np.ndarray, m: int, n: int, rcond: float, dq:
 
 @nb.njit(**NJIT)
 def _jt_step(jac: np.ndarray, e: np.ndarray, m: int, n: int, tmp: np.ndarray,
-             dq: np.ndarray) -> None:
-    """Jacobian transpose ``dq = alpha J^T e`` with the optimal step length.
+             dq: np.ndarray, gain: float = 0.0) -> None:
+    """Jacobian transpose ``dq = alpha J^T e``.
 
-    ``alpha = <e, J J^T e> / |J J^T e|^2`` minimises the linearised error ``|e - J dq|^2``.
+    ``gain`` > 0 is the lecture's fixed ``alpha``; 0 takes the optimal step length
+    ``alpha = <e, J J^T e> / |J J^T e|^2``, which minimises the linearised error
+    ``|e - J dq|^2``.
     """
     for c in range(n):
         s = 0.0
         for r in range(m):
             s += jac[r, c] * e[r]
         dq[c] = s
+    if gain > 0.0:
+        for c in range(n):
+            dq[c] *= gain
+        return
     num = 0.0
     den = 0.0
     for r in range(m):
@@ -238,3 +244,22 @@ def _descend(q: np.ndarray, qn: np.ndarray, dq: np.ndarray, en: float, lower: np
     return False
 
 
+
+
+@nb.njit(**NJIT)
+def _jt_apply(q: np.ndarray, qn: np.ndarray, dq: np.ndarray, en: float, gain: float,
+              lower: np.ndarray, upper: np.ndarray, jd: np.ndarray, fd: np.ndarray,
+              paths: np.ndarray, gf: np.ndarray, gt: np.ndarray, gd: np.ndarray, gw: np.ndarray,
+              rw: float, pose: np.ndarray, jg: np.ndarray, e: np.ndarray,
+              jac: np.ndarray) -> None:
+    """Apply a J^T step: as it is for the lecture's fixed gain, else by :func:`_descend`.
+
+    With a fixed gain (``gain`` > 0) the step is taken whether or not it lowers the error, as
+    the lecture's iteration does; ``q`` is clamped into the limits.
+    """
+    if gain > 0.0:
+        for i in range(q.shape[0]):
+            q[i] += dq[i]
+        _clamp(q, lower, upper)
+        return
+    _descend(q, qn, dq, en, lower, upper, jd, fd, paths, gf, gt, gd, gw, rw, pose, jg, e, jac)

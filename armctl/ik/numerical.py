@@ -144,7 +144,8 @@ def method_params(model: KinematicModel, method: int, options: IKOptions,
     cache = _PRM_CACHE.get(model)
     if cache is None:
         cache = _PRM_CACHE[model] = {}
-    key = (method, params, options.nullspace)  # params None (the defaults): a cheap hash
+    # params None (the defaults): a cheap hash
+    key = (method, params, options.nullspace, options.ccd_weights, options.jt_gain)
     got = cache.get(key)
     if got is None:
         got = cache[key] = _method_params(model, params or _PARAMS[method], options)
@@ -157,7 +158,12 @@ def _method_params(model: KinematicModel, p: MethodParams, options: IKOptions) -
     prm[E.P_WINDOW] = p.window
     prm[E.P_RATIO] = p.ratio
     prm[E.P_MAX_STEP] = p.max_step
-    prm[E.P_RHO2] = (0.25 * model.tree.max_reach) ** 2
+    weights = options.ccd_weights
+    rho2 = (0.25 * model.tree.max_reach) ** 2  # the default w2: both terms alike in size
+    prm[E.P_RHO2] = (weights.orientation if weights is not None
+                     and weights.orientation is not None else rho2)
+    prm[E.P_CCD_W1] = weights.position if weights is not None else 1.0
+    prm[E.P_JT_GAIN] = options.jt_gain if options.jt_gain is not None else 0.0
     prm[E.P_RCOND] = p.rcond
     prm[E.P_MARGIN] = 0.99
     ns = options.nullspace
@@ -166,7 +172,7 @@ def _method_params(model: KinematicModel, p: MethodParams, options: IKOptions) -
     prm[E.P_NS_STEP] = 0.1
     # None: the weight that CCD's objective gives orientation, sqrt(2 rho2)
     prm[E.P_ROT_W] = (p.rotation_weight if p.rotation_weight is not None
-                      else np.sqrt(2.0 * prm[E.P_RHO2]))
+                      else np.sqrt(2.0 * rho2))
     prm[E.P_MU0] = p.mu0
     prm[E.P_MU_DOWN] = p.mu_down
     prm[E.P_MU_MIN] = p.mu_min
@@ -352,7 +358,8 @@ def solve_goal(name: str, model: KinematicModel, goal: Goal, q0: Any, options: I
 
     What :func:`run_method` does for ``(goal,)`` with its checks (the goal's kind and frame, the
     start), with the per-model arrays looked up once; ``None`` when the options ask for more
-    (null-space criteria, a collision checker), for :func:`run_method` to do.
+    (null-space criteria, a collision checker, CCD weights or a fixed J^T gain), for
+    :func:`run_method` to do.
 
     Args:
         name: The method (``dls``, ``pinv``, ``jt``, ``ccd``, ``ccd-jt``).
@@ -365,7 +372,8 @@ def solve_goal(name: str, model: KinematicModel, goal: Goal, q0: Any, options: I
     """
     started = _clock()
     opts = _DEFAULT_OPTIONS if options is None else options
-    if opts.nullspace is not None or opts.avoid is not None:
+    if (opts.nullspace is not None or opts.avoid is not None or opts.ccd_weights is not None
+            or opts.jt_gain is not None):
         return None
     call = _CALLS.get(id(model))
     if call is None or call.model() is not model:
