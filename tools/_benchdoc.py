@@ -36,11 +36,19 @@ def write_section(name: str, markdown: str, command: str) -> Path:
     today = datetime.date.today().isoformat()
     body = (f"<!-- bench:{name} -->\n{markdown.rstrip()}\n\nProduced by `{command}` on {today} "
             f"({machine()}).\n<!-- /bench:{name} -->")
-    text = DOC.read_text(encoding="utf-8") if DOC.exists() else HEADER
-    pattern = re.compile(rf"<!-- bench:{re.escape(name)} -->.*?<!-- /bench:{re.escape(name)} -->",
-                         re.S)
-    text = pattern.sub(lambda _: body, text) if pattern.search(text) else (
-        text.rstrip() + "\n\n" + body + "\n")
-    DOC.parent.mkdir(parents=True, exist_ok=True)
-    DOC.write_text(text, encoding="utf-8")
-    return DOC
+    return replace_block(DOC, f"bench:{name}", body, HEADER)
+
+
+def replace_block(doc: Path, marker: str, block: str, header: str = "") -> Path:
+    """Replace the block between ``<!-- marker -->`` and ``<!-- /marker -->`` of ``doc``.
+
+    ``block`` includes both marker lines. A document without the block gets it appended (a
+    missing document starts with ``header``). The rest of the document is kept as it is.
+    """
+    text = doc.read_text(encoding="utf-8") if doc.exists() else header
+    pattern = re.compile(rf"<!-- {re.escape(marker)} -->.*?<!-- /{re.escape(marker)} -->", re.S)
+    text = pattern.sub(lambda _: block, text) if pattern.search(text) else (
+        text.rstrip() + "\n\n" + block + "\n")
+    doc.parent.mkdir(parents=True, exist_ok=True)
+    doc.write_text(text, encoding="utf-8")
+    return doc

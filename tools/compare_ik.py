@@ -1,5 +1,7 @@
 """Reproduce the comparison of IK methods of the lecture (L. Kavan, *Metody skeletální animace*,
-2002) on every bundled arm; writes docs/ik-methods.md.
+2002) on every bundled arm; writes its section of docs/ik-methods.md (between its
+``compare:arms`` markers; the rest of the page is written by hand and by
+``tools/compare_ik_chains.py``).
 
 For every bundled arm and goal type (position, orientation, direction, pose; the two-armed torso
 gets one goal per hand at once) random reachable goals are drawn (FK of uniform random
@@ -23,6 +25,9 @@ from pathlib import Path
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _benchdoc import replace_block
 
 from armctl.arm import Arm, load_arm
 from armctl.config import bundled_configs
@@ -269,10 +274,9 @@ def motion_share(runs: Runs, chain: list[int]) -> np.ndarray:
 
 
 def evenness(share: np.ndarray) -> float:
-    """Normalised entropy of the mean motion share: 1 = motion spread evenly over the joints."""
-    p = share.mean(axis=0)
-    p = p[p > 0]
-    n = share.shape[1]
+    """Normalised entropy of one solve's motion shares: 1 = spread evenly over the joints."""
+    p = share[share > 0]
+    n = share.shape[0]
     return float(-(p * np.log(p)).sum() / np.log(n)) if n > 1 else 1.0
 
 
@@ -363,15 +367,18 @@ def report(arms: list[str], summary: dict, tables: list[str], costs: dict,
     def cost(s: str) -> float:
         return float(np.median([costs[(name, s)] for name in arms]))
 
-    even = {}
+    even: dict[str, float] = {}
+    distal: dict[str, float] = {}
     for s in SOLVERS[:-1]:
-        vals = []
+        per_solve: list[float] = []
+        tip: list[float] = []
         for name in arms:
             arm = load_arm(name)
             share = motion_share(summary[(name, "position", s, "mid")], list(arm.chain()))
-            if len(share):
-                vals.append(evenness(share))
-        even[s] = float(np.mean(vals)) if vals else float("nan")
+            per_solve += [evenness(row) for row in share]
+            tip += list(share[:, -2:].sum(axis=1)) if len(share) else []
+        even[s] = float(np.median(per_solve)) if per_solve else float("nan")
+        distal[s] = float(np.median(tip)) if tip else float("nan")
     claims = []
 
     def verdict(ok: bool) -> str:
@@ -400,12 +407,18 @@ def report(arms: list[str], summary: dict, tables: list[str], costs: dict,
            "SVD of a 6 x n matrix."))
     top = max(even, key=lambda s: even[s])
     claims.append(
-        f"- *J^T spreads motion over all joints*: {verdict(even['jt'] >= even['ccd'])} against "
-        f"CCD (evenness of the mean share of |dq_j|, normalised entropy, 1 = even: J^T "
-        f"{even['jt']:.2f}, CCD {even['ccd']:.2f}, pinv {even['pinv']:.2f}, dls "
-        f"{even['dls']:.2f}, ccd-jt {even['ccd-jt']:.2f}; the most even here is {top}).")
+        f"- *J^T spreads motion over all joints*: {verdict(even['jt'] > even['ccd'])} against "
+        f"CCD (per solve, the normalised entropy of the shares of |dq_j|, 1 = even; median over "
+        f"the solves: J^T {even['jt']:.2f}, CCD {even['ccd']:.2f}, pinv {even['pinv']:.2f}, dls "
+        f"{even['dls']:.2f}, ccd-jt {even['ccd-jt']:.2f}; the most even here is {top}; share "
+        f"of the two joints nearest the tool: J^T {distal['jt']:.2f}, CCD {distal['ccd']:.2f}). "
+        "Arms of 4-7 joints leave little room to spread: see the chains of up to 40 joints "
+        "above.")
     cs, ps = agg_sing["ccd"], agg_sing["pinv"]
-    drop_c, drop_p = c.rate - cs.rate, p.rate - ps.rate
+    sing_arms = {n for (n, k, _s, _t) in summary if k.startswith("singular:")}
+    base = {s: _agg(summary, s, lambda n, k, t: n in sing_arms and k == "pose" and t == "mid")
+            for s in SOLVERS}  # like for like: ordinary pose goals, from the middle
+    drop_c, drop_p = base["ccd"].rate - cs.rate, base["pinv"].rate - ps.rate
     by_label = {label: _agg(summary, "ccd", lambda n, k, s, lb=label: k == "singular:" + lb)
                 for label in ("stretched", "wrist aligned")}
     where = ("" if by_label["stretched"].rate >= by_label["wrist aligned"].rate else
@@ -414,9 +427,11 @@ def report(arms: list[str], summary: dict, tables: list[str], costs: dict,
              f"{by_label['wrist aligned'].rate:.1f} % wrist aligned).")
     claims.append(
         f"- *CCD has no trouble with singularities*: {verdict(drop_c <= max(drop_p, 5.0))}. "
-        f"On the singular goals CCD reached {cs.rate:.1f} % (ordinary goals {c.rate:.1f} %), "
-        f"pinv {ps.rate:.1f} % ({p.rate:.1f} %), dls {agg_sing['dls'].rate:.1f} % "
-        f"({agg['dls'].rate:.1f} %), J^T {agg_sing['jt'].rate:.1f} % ({j.rate:.1f} %). "
+        f"On the singular pose goals CCD reached {cs.rate:.1f} % (ordinary pose goals of the "
+        f"same arms, from the same start: {base['ccd'].rate:.1f} %), pinv {ps.rate:.1f} % "
+        f"({base['pinv'].rate:.1f} %), dls {agg_sing['dls'].rate:.1f} % "
+        f"({base['dls'].rate:.1f} %), J^T {agg_sing['jt'].rate:.1f} % "
+        f"({base['jt'].rate:.1f} %). "
         + ("CCD loses less there than the pseudoinverse." if drop_c <= drop_p else
            "CCD loses more there than the pseudoinverse." + where))
     starts = {st: {s: _agg(summary, s, lambda n, k, t, st=st: normal(n, k, t) and t == st)
@@ -459,83 +474,17 @@ def report(arms: list[str], summary: dict, tables: list[str], costs: dict,
     return TEMPLATE.format(
         goals=args.goals, budget=args.budget, arms=", ".join(arms), tol_p=TOL.position,
         tol_r=TOL.rotation, claims="\n".join(claims), table=tables[0],
-        singular=tables[1], costs=tables[2], methods=methods_table(),
+        singular=tables[1], costs=tables[2],
         fewer=" (fewer than the default 1000, for time)" if args.goals < 1000 else "",
         cmd=cmd.strip(), date=today, minutes=elapsed / 60, seed=args.seed)
 
 
-METHODS = [
-    ("name", "method", "step"),
-    ("`pinv`", "Moore-Penrose pseudoinverse (from the lecture)",
-     "`dq = J^+ e` by SVD, singular values below 1e-6 s_max dropped, steps capped at 0.5 rad"),
-    ("`dls`", "damped least squares / Levenberg-Marquardt",
-     "`dq = (J^T J + lambda I)^-1 J^T e`, `lambda = mu E + 1e-9`; `mu` x8 after a step that "
-     "does not lower `E = e.e/2` (rejected), /4 after one that does: heavy damping far from the "
-     "goal and near singular configurations, Gauss-Newton close to it. Joints the step would "
-     "push past a limit are held there and the step re-solved for the others"),
-    ("`jt`", "Jacobian transpose (from the lecture)",
-     "`dq = alpha J^T e`, `alpha = <e, J J^T e> / |J J^T e|^2` (the step that minimises the "
-     "linearised error), halved up to 4 times, or skipped, when it does not lower the error; "
-     "orientation rows weighted by `sqrt(2) reach/4` [m/rad], the weight CCD's objective gives "
-     "them (reach: the largest distance any frame of the arm can have from the base)"),
-    ("`ccd`", "cyclic coordinate descent (from the lecture, with its closed-form angle)",
-     "tip-to-base sweep; each revolute joint turns by `t = atan2(k3, k2 - k1)`, the maximising "
-     "branch of `k1 (1 - cos t) + k2 cos t + k3 sin t` (position term `w1 g1` plus orientation "
-     "term `w2 g2`, `w2 = w1 (reach/4)^2`), clipped to the better end of its range when the "
-     "maximum lies outside; prismatic joints slide by the least-squares distance along their "
-     "axis"),
-    ("`ccd-jt`", "CCD + J^T (the combination the lecture suggests)",
-     "every iteration is a CCD sweep followed by one optimal J^T step (kept only if it lowers "
-     "the error)"),
-    ("`auto`", "the default",
-     "`dls` with random restarts; when that fails on one goal whose frame is moved by exactly "
-     "as many joints as the goal constrains, the closed-form solver (`analytic`) if it has a "
-     "decomposition for the arm"),
-]
+TEMPLATE = """<!-- compare:arms -->
+## The methods on the bundled robot arms
 
-
-def methods_table() -> str:
-    """The table of methods as markdown."""
-    rows = ["| " + " | ".join(r) + " |" for r in METHODS]
-    return "\n".join([rows[0], "|---|---|---|", *rows[1:]])
-
-
-TEMPLATE = """# IK methods: what they are and how they compare
-
-armctl implements every numerical IK method of the lecture (L. Kavan, *Metody skeletální
-animace*, 2002: Jacobian pseudoinverse, redundancy, Jacobian transpose, cyclic coordinate
-descent and their combination) as a solver that `arm.ik(goal, solver=...)`,
-`armctl ik --solver ...` and `armctl.ik.solve_batch` accept:
-
-{methods}
-
-Common to all: goals of every type ([ik-goals.md](ik-goals.md#goal-types); `ccd` and `ccd-jt`
-take the first four: position; orientation; position + one tool axis, 5 DOF, with the lecture's
-Jacobian columns `w x v` for the direction part; full pose), for any frame and several frames at
-once; every step is clamped into the joint limits (`dls`: see below); an attempt that stops
-improving (its error did not fall by 1 % within 10 iterations for pinv/dls, 0.1 % within 20-50
-for the heuristics) or uses up `max_iterations` restarts from a uniform random configuration of
-the joints that move a goal, up to `restarts` times and within `time_limit`. Every `dls` attempt
-(without null-space criteria) first ignores the limits (clamping creates false minima at the
-limits): a solution found that way is shifted by multiples of 2 pi into the ranges, or clamped
-and finished with the limits on; the generator is seeded by `IKOptions.seed`, so answers are
-reproducible. The whole loop, restarts included, is compiled with numba. `success` is decided
-afterwards from forward kinematics and the limits (`armctl.ik.result.finish`); a failed solve
-returns the closest configuration found with status `unreachable` (every attempt ended at a
-minimum of the error), `max_iterations`, `time_limit`, `singular` (it ended at a singular
-configuration of the goals) or `failed` (non-finite numbers); see
-[ik-goals.md](ik-goals.md#ik-statuses).
-
-Null-space criteria (the lecture's redundancy step) are available on `pinv` and `dls` through
-`IKOptions(nullspace=NullSpace(...))`: comfortable posture, joint-limit avoidance, keep-out spheres
-for link frames (`KeepOut`), manipulability. Once the goals are met the solver moves along
-`(I - J^+ J) dz`, `dz = -gain grad h`, corrects the drift with primary steps, keeps a step only if
-`h` fell, and stops when it no longer falls.
-
-## The lecture's claims against the measurements
-
-The lecture compares the methods in a few sentences (in italics below); each verdict is computed
-from the measurements of this page.
+The lecture's claims (in italics) on the robot arms armctl ships (4-7 joints); each verdict is
+computed from the measurements of this section. The same claims on chains of 4 to 40 joints:
+[above](#the-methods-on-chains-of-4-to-40-joints).
 
 {claims}
 
@@ -590,7 +539,7 @@ sweep over all joints).
 
 Produced by `{cmd}` on {date} ({minutes:.0f} min). Speed against other libraries: see the `ik`
 section of docs/benchmarks.md (tools/bench_ik.py).
-"""
+<!-- /compare:arms -->"""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -602,8 +551,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=2026)
     args = ap.parse_args(argv)
     text = study(args)
-    DOC.parent.mkdir(parents=True, exist_ok=True)
-    DOC.write_text(text, encoding="utf-8")
+    replace_block(DOC, "compare:arms", text.rstrip())
     print(f"wrote {DOC}")
     return 0
 
