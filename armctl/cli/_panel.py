@@ -13,6 +13,7 @@ import time
 from typing import TYPE_CHECKING
 
 from armctl.cli._common import emit
+from armctl.errors import InputError
 
 if TYPE_CHECKING:
     from armctl.arm import Arm
@@ -32,6 +33,48 @@ def warn_exposed(host: str, token: str | None, control: bool) -> None:
           f"{what}; serve it on 127.0.0.1 (the default) unless you mean it"
           + ("" if token or not control else ", or protect commanding with --token"),
           file=sys.stderr)
+
+
+#: The web server's port when ``--http-port`` is not given (the next free one if it is taken).
+DEFAULT_HTTP_PORT = 8080
+
+
+def choose_http_port(args: argparse.Namespace) -> None:
+    """Settle ``args.http_port``: a port given must be free; the default may move on.
+
+    A port the user names (``--http-port N``, N > 0) is the one served or the command is
+    refused: an address that changes silently breaks bookmarks and tunnels. Without
+    ``--http-port`` the default is served, or the next free port, which :func:`say_http_port`
+    announces.
+
+    Raises:
+        InputError: For a port outside 0-65535, or one given that another program listens on.
+    """
+    import socket
+
+    args.http_port_given = args.http_port is not None
+    if args.http_port is None:
+        args.http_port = DEFAULT_HTTP_PORT
+        return
+    if not 0 <= args.http_port <= 65535:
+        raise InputError(f"--http-port {args.http_port} is not a TCP port (0-65535)")
+    if args.http_port == 0:
+        return
+    with socket.socket(socket.AF_INET6 if ":" in args.host else socket.AF_INET) as sock:
+        try:
+            sock.bind((args.host, args.http_port))
+        except OSError:
+            raise InputError(
+                f"--http-port {args.http_port} is in use on {args.host} (another program, or "
+                "another 'armctl view', listens on it); choose another port, or --http-port 0 "
+                "for any free one") from None
+
+
+def say_http_port(args: argparse.Namespace, served: int) -> None:
+    """Say so on stderr when the default port was taken and another one is served."""
+    if not args.http_port_given and served != DEFAULT_HTTP_PORT:
+        print(f"note: port {DEFAULT_HTTP_PORT} is in use: the page is served on port {served} "
+              "instead (--http-port N to choose)", file=sys.stderr)
 
 
 def serve_panel(args: argparse.Namespace, arm: Arm) -> int | None:
@@ -68,6 +111,7 @@ def serve_panel(args: argparse.Namespace, arm: Arm) -> int | None:
         page = PanelPage(panel, args.host, args.http_port, connection, min(args.rate, 20.0))
         try:
             url = page.start()
+            say_http_port(args, page.port)
             emit(args, {"url": url, "http_port": page.port, "bus": True,
                         "bus_port": spec.bus.port, "attached": None, "control": True,
                         "token": args.token is not None},

@@ -111,8 +111,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_config(p)
     p.add_argument("--host", default="127.0.0.1",
                    help="address to listen on (default 127.0.0.1: this machine only)")
-    p.add_argument("--http-port", type=int, default=8080, metavar="N",
-                   help="TCP port of the web server (default 8080; 0: any free)")
+    p.add_argument("--http-port", type=int, default=None, metavar="N",
+                   help="TCP port of the web server (default 8080, or the next free one, "
+                        "said on stderr; a port given must be free; 0: any free)")
     p.add_argument("--bus", action="store_true",
                    help="follow the arm's servo bus (the 'bus:' section; the simulated bus "
                    "when it says so) by reading joint positions")
@@ -402,7 +403,7 @@ def view_arm(arm: Arm, bus: Any = None) -> Arm:
 
 def cmd_view(args: argparse.Namespace) -> int:
     """Serve the live view until interrupted."""
-    from armctl.cli._panel import serve_panel, warn_exposed
+    from armctl.cli._panel import choose_http_port, say_http_port, serve_panel, warn_exposed
     from armctl.cli._watch import OwnerFollower, check_same_arm
     from armctl.render.live import LiveView
 
@@ -411,8 +412,7 @@ def cmd_view(args: argparse.Namespace) -> int:
                          "(a device such as /dev/ttyACM0, or the pty of 'armctl sim'); the web "
                          f"server's TCP port is --http-port {args.port.strip()}")
     arm = load_arm_arg(args)
-    if not 0 <= args.http_port <= 65535:
-        raise InputError(f"--http-port {args.http_port} is not a TCP port (0-65535)")
+    choose_http_port(args)
     if args.rate <= 0:
         raise InputError(f"--rate must be positive, got {args.rate}")
     control = (args.bus or args.sim or args.port is not None) and not args.watch
@@ -437,6 +437,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     follower = None
     try:
         url = view.start()
+        say_http_port(args, view.port)
         if bus is not None:
             view.follow(bus.read_joints, args.rate)
         elif owner is not None:

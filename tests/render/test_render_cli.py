@@ -171,3 +171,34 @@ def test_render_keyframes_with_pose_keyframes(tmp_path, capsys):
     assert end[:3, 2] == pytest.approx([0.0, 0.0, -1.0], abs=1e-3)  # tool z axis down
     assert data["goal"][arm.joint_index("gripper")] == pytest.approx(0.0)
     assert len(list(ImageSequence.Iterator(Image.open(out)))) == data["frames"]
+
+
+def test_a_given_http_port_in_use_is_refused(capsys):
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        code, _, err = run(capsys, "view", SHAPES5, "--http-port", str(port), "--duration", "0.1")
+    assert code == 2 and f"--http-port {port} is in use" in err and "--http-port 0" in err
+    assert "Traceback" not in err
+
+
+def test_the_default_http_port_moves_on_and_says_so(capsys):
+    import argparse
+
+    from armctl.cli._panel import DEFAULT_HTTP_PORT, choose_http_port, say_http_port
+
+    args = argparse.Namespace(http_port=None, host="127.0.0.1")
+    choose_http_port(args)
+    assert args.http_port == DEFAULT_HTTP_PORT and args.http_port_given is False
+    say_http_port(args, DEFAULT_HTTP_PORT)
+    assert capsys.readouterr().err == ""
+    say_http_port(args, DEFAULT_HTTP_PORT + 1)
+    err = capsys.readouterr().err
+    assert f"port {DEFAULT_HTTP_PORT} is in use" in err and f"port {DEFAULT_HTTP_PORT + 1}" in err
+    given = argparse.Namespace(http_port=0, host="127.0.0.1")
+    choose_http_port(given)  # 0: any free port, nothing to say
+    say_http_port(given, 45678)
+    assert capsys.readouterr().err == ""
