@@ -488,7 +488,7 @@ computed from the measurements of this section. The same claims on chains of 4 t
 
 {claims}
 
-## Protocol
+### Protocol
 
 - Arms: {arms} (the bundled configs); the two-armed torso gets one goal per hand at once.
 - Goals: {goals} per arm and goal type{fewer}, FK of uniform random configurations inside the
@@ -505,7 +505,7 @@ computed from the measurements of this section. The same claims on chains of 4 t
   some solves took no iteration, e.g. closed-form answers of `auto`); a CCD iteration is a full
   sweep. The cost of one iteration alone is in the last table.
 
-## Plots
+### Plots
 
 ![error vs iteration](img/ik-error-vs-iteration.png)
 
@@ -521,15 +521,15 @@ Share of pose goals reached within a given number of iterations (one attempt).
 How each method spreads the motion over the joints (position goals from the middle): mean share
 of `|dq_j|` in the total.
 
-## Results
+### Results
 
 {table}
 
-### Singular goals
+#### Singular goals
 
 {singular}
 
-### Cost of one iteration [us]
+#### Cost of one iteration [us]
 
 Median over 20 pose goals of the time of a run of up to 300 iterations minus that of a
 1-iteration run, per extra iteration (the fixed cost of a call cancels; a CCD iteration is a

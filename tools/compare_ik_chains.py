@@ -7,7 +7,11 @@ have 4-7. Here every method runs on generated serial chains of n = 4, 5, 6, 7, 1
 revolute joints, each of reach 1 m (n links of 1/n m along x, limits +-180 deg): planar (every
 axis along z) and spatial (axes z, y, x in turn). Goals are FK of uniform random configurations
 (so every one is reachable), solved from another uniform random configuration (the same start
-for every method), one attempt each (no restarts) with the whole iteration budget.
+for every method), one attempt each (no restarts) with the whole iteration budget. The methods:
+``pinv``, ``dls``, ``jt`` (armctl's optimal step length), ``jt fixed`` (the lecture's constant
+gain, ``alpha = 1 / lambda_max(J J^T)`` of the stretched chain: stable everywhere),
+``ccd`` (its weights ``w1 = 1``, ``w2 = (reach / 4)^2``), ``ccd w2/10`` and ``ccd w2x10`` (the
+orientation weight a tenth and ten times that) and ``ccd-jt``.
 
 Measured per solve: success (1e-5 m / 1e-4 rad by FK, inside the limits), iterations, wall time
 (ratios within this run only: a shared machine), and how the motion ``dq = q_end - q_start``
@@ -390,8 +394,10 @@ def claims(s: Study, sizes: Sequence[int], command: str) -> str:
         ej, dj = even("jt", ns)
         ec, dc = even("ccd", ns)
         ep, dp = even("pinv", ns)
-        rows.append([f"J^T spreads motion evenly over all joints ({what})",
-                     "holds" if ej > ec and dj < dc else "does not hold",
+        verdict = "holds" if ej > ec and dj < dc else "does not hold"
+        if verdict == "holds" and abs(ep - ej) < 0.02:
+            verdict = "holds against CCD; the pseudoinverse spreads as evenly"
+        rows.append([f"J^T spreads motion evenly over all joints ({what})", verdict,
                      f"per-solve evenness (median) J^T {fmt(ej)}, CCD {fmt(ec)}, pinv {fmt(ep)}; "
                      f"share of the five tip joints J^T {fmt(dj)}, CCD {fmt(dc)}, pinv "
                      f"{fmt(dp)}"])
@@ -413,7 +419,7 @@ def claims(s: Study, sizes: Sequence[int], command: str) -> str:
     r_cj, r_c, r_j = rate("ccd-jt", sizes), rate("ccd", sizes), rate("jt", sizes)
     ic, icj, k = paired_iters(s, sizes, "ccd", "ccd-jt")
     rows.append(["CCD and J^T complement each other (CCD + J^T)",
-                 "holds" if r_cj > max(r_c, r_j) else
+                 "holds" if r_cj > max(r_c, r_j) + 1.0 else
                  ("holds only in iterations" if icj < ic else "does not hold"),
                  f"success CCD+J^T {r_cj:.0f} %, CCD {r_c:.0f} %, J^T {r_j:.0f} %; median "
                  f"iterations on the {k} problems both solved: CCD {ic:.0f}, CCD+J^T {icj:.0f}"])
@@ -424,6 +430,13 @@ def claims(s: Study, sizes: Sequence[int], command: str) -> str:
                  ("holds only in steps" if ip < ic else "does not hold"),
                  f"median iterations on the {k} problems both solved: pinv {ip:.0f}, CCD "
                  f"{ic:.0f}; per-iteration cost above"])
+    # the best founded: not a measurable claim; what the Newton-type methods reach
+    rp, rd = rate("pinv", sizes), rate("dls", sizes)
+    best = max(("ccd", "ccd-jt", "jt"), key=lambda lb: rate(lb, sizes))
+    rows.append(["The pseudoinverse is the best founded in theory",
+                 "not measurable; in practice its damped form leads",
+                 f"success in one attempt: dls (damped least squares) {rd:.0f} %, pinv "
+                 f"{rp:.0f} %, the best heuristic ({best}) {rate(best, sizes):.0f} %"])
     # 7. pinv trouble near singular J (section 8)
     rs, _ = case("pinv", "stretched", sizes)
     rb, _ = case("pinv", "stretched baseline", sizes)
@@ -450,7 +463,8 @@ def claims(s: Study, sizes: Sequence[int], command: str) -> str:
     rf, ro = rate("jt fixed", sizes), rate("jt", sizes)
     iff, io, k = paired_iters(s, sizes, "jt fixed", "jt")
     rows.append(["J^T with a fixed gain (the lecture's step)",
-                 "works, slower than the optimal step" if rf <= ro else "works",
+                 "converges, far more slowly than armctl's optimal step" if rf <= ro
+                 else "converges",
                  f"success fixed gain {rf:.0f} %, armctl's optimal step {ro:.0f} %; median "
                  f"iterations on the {k} problems both solved: {iff:.0f} vs {io:.0f}"])
     head = ["claim of the lecture", "verdict", "the numbers"]
@@ -484,9 +498,8 @@ def plots(s: Study, sizes: Sequence[int]) -> list[str]:
     for ax, kind in zip(axes, KINDS, strict=True):
         for lb in labels:
             ys = [pooled(s, [n], ("planar", "spatial"), (kind,), lb).rate() for n in sizes]
-            ax.plot(list(sizes), ys, marker="o", label=lb, color=COLORS[lb])
-        ax.set_xscale("log")
-        ax.set_xticks(list(sizes))
+            ax.plot(range(len(sizes)), ys, marker="o", label=lb, color=COLORS[lb])
+        ax.set_xticks(range(len(sizes)))  # one place per chain length, evenly spaced
         ax.set_xticklabels([str(n) for n in sizes])
         ax.set_ylim(0, 101)
         style_axes(ax, f"{kind} goals, one attempt", "joints", "success [%]",
