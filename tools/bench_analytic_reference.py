@@ -10,9 +10,10 @@ one after the other in one process, armctl's ``ik_all`` (Python call included, d
 one row per solution) and EAIK's ``HPRobot.IK`` on the same goals (EAIK is given armctl's
 idealised axes; its goals are converted to its tool frame beforehand, outside the timing). A
 time per call comes from blocks of 50 goals, each timed solver after solver in 5 rounds (the
-best round per block, see ``per_call``); the table gives the median over the passes and the
-ratio of the medians. With ``--before GITREF`` each pass also runs the armctl of
-that git revision (``git archive``, in a subprocess, so both trees are measured in alternation).
+best round per block, see ``per_call``); the table gives the median over the passes, the
+ratio of the medians, and the median, lowest and highest of the per-pass ratios. With
+``--before GITREF`` each pass also runs the armctl of that git revision (``git archive``, in a
+subprocess, so both trees are measured in alternation), with EAIK timed beside it there too.
 
 Also reported: completeness (the share of goals whose generating configuration is among the
 answers, up to 2 pi wraps, within 1e-6 rad) and the mean number of answers whose FK (by armctl)
@@ -241,7 +242,7 @@ def main() -> int:
         quality = worker({"robots": robots, "eaik": have_eaik, "quality": True})
         for _ in range(args.passes):
             if before_tree is not None:
-                befores.append(run_tree(before_tree, {"robots": robots}, tmp))
+                befores.append(run_tree(before_tree, {"robots": robots, "eaik": have_eaik}, tmp))
             passes.append(worker({"robots": robots, "eaik": have_eaik}))
             load.append(os.getloadavg()[0])
     lines = ["## Analytic IK on the reference robots, against EAIK", "",
@@ -254,32 +255,48 @@ def main() -> int:
              "nearest the reference). EAIK `HPRobot.IK` plus dropping its least-squares "
              "answers, on armctl's idealised axes, goals given in its tool frame. Found: share "
              "of goals whose generating configuration is among the answers (up to 2 pi); "
-             "answers: mean number whose FK is within 1e-9 m / rad of the goal. 1-minute load "
+             "answers: mean number whose FK is within 1e-9 m / rad of the goal. Per pass: "
+             "the ratio of that pass's two times (its median over the passes and, in "
+             "brackets, the lowest and highest). 1-minute load "
              f"average during the run: {min(load):.1f}-{max(load):.1f} on "
              f"{os.cpu_count()} CPUs.", "",
-             "| robot | armctl `ik_all` [us] |"
-             + (" armctl before [us] |" if befores else "")
-             + " EAIK [us] | armctl / EAIK | found armctl / EAIK | answers armctl / EAIK |",
-             "|---|---:|" + ("---:|" if befores else "") + "---:|---:|---:|---:|"]
+             "| robot | armctl `ik_all` [us] | EAIK [us] | armctl / EAIK | per pass |"
+             + (" armctl before [us] | EAIK, before's passes [us] | before / EAIK, per pass |"
+                if befores and have_eaik else " armctl before [us] |" if befores else "")
+             + " found armctl / EAIK | answers armctl / EAIK |",
+             "|---|---:|---:|---:|---:|" + ("---:|---:|---:|" if befores and have_eaik
+                                             else "---:|" if befores else "") + "---:|---:|"]
+
+    def per_pass(runs: list[dict[str, Any]], label: str) -> str:
+        r = sorted(p[label]["armctl"] / p[label]["eaik"] for p in runs)
+        return f"{statistics.median(r):.2f} [{r[0]:.2f}-{r[-1]:.2f}]"
+
     for label in robots:
         ours = statistics.median(p[label]["armctl"] for p in passes)
         q = quality[label]
         row = f"| {label} | {ours:.1f} |"
-        if befores:
-            row += f" {statistics.median(b[label]['armctl'] for b in befores):.1f} |"
         if have_eaik:
             theirs = statistics.median(p[label]["eaik"] for p in passes)
-            row += (f" {theirs:.1f} | {ours / theirs:.2f} | {q['armctl_found']:.3f} / "
-                    f"{q['eaik_found']:.3f} | {q['armctl_answers']:.2f} / "
-                    f"{q['eaik_answers']:.2f} |")
+            row += f" {theirs:.1f} | {ours / theirs:.2f} | {per_pass(passes, label)} |"
         else:
-            row += f" - | - | {q['armctl_found']:.3f} / - | {q['armctl_answers']:.2f} / - |"
+            row += " - | - | - |"
+        if befores:
+            row += f" {statistics.median(b[label]['armctl'] for b in befores):.1f} |"
+            if have_eaik:
+                row += (f" {statistics.median(b[label]['eaik'] for b in befores):.1f} |"
+                        f" {per_pass(befores, label)} |")
+        if have_eaik:
+            row += (f" {q['armctl_found']:.3f} / {q['eaik_found']:.3f} |"
+                    f" {q['armctl_answers']:.2f} / {q['eaik_answers']:.2f} |")
+        else:
+            row += f" {q['armctl_found']:.3f} / - | {q['armctl_answers']:.2f} / - |"
         lines.append(row)
     if befores:
         rev = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", args.before],
                              capture_output=True, text=True, check=True).stdout.strip()
         lines += ["", f"Before: the armctl of git revision {rev} (`{args.before}` at the time), "
-                  "timed the same way in a subprocess, in alternation with the current tree."]
+                  "timed the same way in a subprocess, in alternation with the current tree"
+                  + (", side by side with EAIK in each of its passes." if have_eaik else ".")]
     if have_eaik:
         fams = {label: quality[label].get("eaik_family", "") for label in robots}
         lines += ["", "EAIK's families: " + "; ".join(f"{k}: {v}" for k, v in fams.items())
@@ -287,8 +304,10 @@ def main() -> int:
     md = "\n".join(lines)
     print(md)
     if not args.no_write:
-        cmd = "python tools/bench_analytic_reference.py" + (
-            f" --before {args.before}" if args.before else "")
+        cmd = ("python tools/bench_analytic_reference.py"
+               + (f" --goals {args.goals}" if args.goals != 500 else "")
+               + (f" --passes {args.passes}" if args.passes != 7 else "")
+               + (f" --before {args.before}" if args.before else ""))
         print(write_section("analytic-ik-reference", md, cmd))
     return 0
 

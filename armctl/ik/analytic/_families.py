@@ -20,15 +20,19 @@ from armctl.ik.analytic._subproblems import (
     cross,
     dot,
     lin_trig,
+    lin_trig_cs,
     mm_into,
     mtm_into,
     mv,
     mv_into,
     norm,
     rot,
+    rot_cs_into,
     rot_into,
     rotv,
+    rotv_cs_into,
     sp1,
+    sp1_cs,
     trig_coeffs,
     wrap,
 )
@@ -71,6 +75,16 @@ def pos3(h: np.ndarray, o: np.ndarray, w: np.ndarray, target: np.ndarray, ref: n
          out: np.ndarray) -> tuple[int, bool]:
     """Angles of three revolute joints that bring the point ``w`` to ``target``.
 
+    :func:`pos3_cs` without the cosines and sines (see there).
+    """
+    return pos3_cs(h, o, w, target, ref, out, np.empty((out.shape[0], 6)))
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def pos3_cs(h: np.ndarray, o: np.ndarray, w: np.ndarray, target: np.ndarray, ref: np.ndarray,
+            out: np.ndarray, cs: np.ndarray) -> tuple[int, bool]:
+    """Angles of three revolute joints that bring the point ``w`` to ``target``.
+
     The point's equation ``target - o1 = R1 (p12 + R2 (p23 + R3 p34))`` is reduced, by the
     invariants of the middle rotation (the component along ``h2`` and the norm), to two equations
     linear in the sines and cosines of ``q1`` and ``q3`` (:func:`circle2`); ``q2`` then follows
@@ -83,6 +97,8 @@ def pos3(h: np.ndarray, o: np.ndarray, w: np.ndarray, target: np.ndarray, ref: n
         target: Where it must go [m].
         ref: Representatives ``(>=3,)`` for continua [rad].
         out: ``(>=4, >=3)`` receives the angles in columns 0-2.
+        cs: ``(>=4, 6)`` receives the cosine and sine of each angle (columns 0-1, 2-3, 4-5),
+            computed on the way (the caller builds rotations from them without trigonometry).
     """
     h1, h2, h3 = h[0], h[1], h[2]
     vec = np.empty((6, 3))  # one allocation for the vectors below
@@ -123,13 +139,14 @@ def pos3(h: np.ndarray, o: np.ndarray, w: np.ndarray, target: np.ndarray, ref: n
                      - p12[r])
             pv[r] = (p23[r] + p34[r] * c3 + (h3[r1] * p34[r2] - h3[r2] * p34[r1]) * s3
                      + h3[r] * k3)
-        t2, deg = sp1(h2, pv, rv, _DEG * lscale)
+        t2, c2, s2, deg = sp1_cs(h2, pv, rv, _DEG * lscale)
         if deg:
-            t2 = ref[1]
+            t2, c2, s2 = ref[1], math.cos(ref[1]), math.sin(ref[1])
             singular = True
         out[i, 0] = t1[i]
         out[i, 1] = t2
         out[i, 2] = t3[i]
+        cs[i, 0], cs[i, 1], cs[i, 2], cs[i, 3], cs[i, 4], cs[i, 5] = c1, -s1, c2, s2, c3, s3
     return n, singular
 
 
@@ -144,47 +161,51 @@ def spherical_wrist(h: np.ndarray, o: np.ndarray, m: np.ndarray, goal: np.ndarra
     """
     w = o[3]
     # scratch (a few allocations, none per candidate)
-    vec = np.empty((7, 3))
+    vec = np.empty((11, 3))
     dw, target, u6, v456, v5, v6, t5s = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
-    mats = np.empty((6, 3, 3))
-    rg, ra, rb, rc, r456, r5 = mats[0], mats[1], mats[2], mats[3], mats[4], mats[5]
+    cs5 = vec[7:9, 0:2]  # cosines and sines of the q5 candidates
+    w6, x6 = vec[9], vec[10]
+    mats = np.empty((5, 3, 3))
+    rg, ra, rb, rc, r456 = mats[0], mats[1], mats[2], mats[3], mats[4]
     for r in range(3):
         dw[r] = w[r] - m[r, 3]
     for r in range(3):  # the wrist centre: goal applied to its place in the tool frame
         target[r] = goal[r, 3]
         for c in range(3):
             target[r] += goal[r, c] * (m[0, c] * dw[0] + m[1, c] * dw[1] + m[2, c] * dw[2])
-    arm = np.empty((4, 3))
-    n3, singular = pos3(h, o, w, target, ref, arm)
+    arm = np.empty((4, 9))  # angles of joints 1-3 (columns 0-2), their cosines and sines
+    n3, singular = pos3_cs(h, o, w, target, ref, arm, arm[:, 3:9])
     for r in range(3):  # rg = goal R m R^T
         for c in range(3):
             rg[r, c] = goal[r, 0] * m[c, 0] + goal[r, 1] * m[c, 1] + goal[r, 2] * m[c, 2]
-    h4, h5, h6 = h[3], h[4], h[5]
+    h1, h2, h3, h4, h5, h6 = h[0], h[1], h[2], h[3], h[4], h[5]  # (views cost refcounts)
     _perp_into(h6, u6)
     cc, ss, cst = trig_coeffs(h4, h5, h6)
     n = 0
     for i in range(n3):
-        rot_into(h[0], arm[i, 0], ra)
-        rot_into(h[1], arm[i, 1], rb)
+        rot_cs_into(h1, arm[i, 3], arm[i, 4], ra)
+        rot_cs_into(h2, arm[i, 5], arm[i, 6], rb)
         mm_into(ra, rb, rc)
-        rot_into(h[2], arm[i, 2], ra)
+        rot_cs_into(h3, arm[i, 7], arm[i, 8], ra)
         mm_into(rc, ra, rb)  # R1 R2 R3
-        mtm_into(rb, rg, r456)
+        mtm_into(rb, rg, r456)  # R4 R5 R6
         mv_into(r456, h6, v456)
-        k5 = lin_trig(cc, ss, dot(h4, v456) - cst, 1.0, t5s)
+        mv_into(r456, u6, w6)
+        k5 = lin_trig_cs(cc, ss, dot(h4, v456) - cst, 1.0, t5s, cs5)
         if k5 == -1:
             k5, t5s[0], singular = 1, ref[4], True
+            cs5[0, 0], cs5[0, 1] = math.cos(ref[4]), math.sin(ref[4])
         for j in range(k5):
-            rot_into(h5, t5s[j], r5)
-            mv_into(r5, h6, v5)
-            t4, deg = sp1(h4, v5, v456, _DEG)
+            # rotations of vectors from the cosines and sines that their equations give (no
+            # trigonometry, no matrices)
+            c5, s5 = cs5[j, 0], cs5[j, 1]
+            rotv_cs_into(h5, c5, s5, h6, v5)  # R5 h6
+            t4, c4, s4, deg = sp1_cs(h4, v5, v456, _DEG)
             if deg:
-                t4 = ref[3]
+                t4, c4, s4 = ref[3], math.cos(ref[3]), math.sin(ref[3])
                 singular = True
-            rot_into(h4, t4, ra)
-            mtm_into(ra, r456, rb)
-            mtm_into(r5, rb, rc)  # R6
-            mv_into(rc, u6, v6)
+            rotv_cs_into(h4, c4, -s4, w6, x6)  # R4^T R4 R5 R6 u6
+            rotv_cs_into(h5, c5, -s5, x6, v6)  # R6 u6
             t6, _ = sp1(h6, u6, v6, _DEG)
             out[n, 0], out[n, 1], out[n, 2] = arm[i, 0], arm[i, 1], arm[i, 2]
             out[n, 3], out[n, 4], out[n, 5] = t4, t5s[j], t6
@@ -313,11 +334,11 @@ def three_parallel(h: np.ndarray, o: np.ndarray, m: np.ndarray, goal: np.ndarray
         for r in range(3):
             vb[r] = rg[0, r] * va[0] + rg[1, r] * va[1] + rg[2, r] * va[2]  # rg^T (r1 h2)
             vc[r] = r5[0, r] * h2[0] + r5[1, r] * h2[1] + r5[2, r] * h2[2]  # r5^T h2
-        t6, deg = sp1(h6, vb, vc, _DEG)
+        t6, c6, s6, deg = sp1_cs(h6, vb, vc, _DEG)
         if deg:
-            t6 = ref[5]
+            t6, c6, s6 = ref[5], math.cos(ref[5]), math.sin(ref[5])
             singular = True
-        rot_into(h6, t6, r6)
+        rot_cs_into(h6, c6, s6, r6)
         mtm_into(r1, rg, ra)
         for r in range(3):  # r234 = r1^T rg r6^T r5^T
             for c in range(3):

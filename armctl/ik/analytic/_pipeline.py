@@ -93,13 +93,15 @@ def pose6(code: int, inverted: bool, h: np.ndarray, o: np.ndarray, m: np.ndarray
     return q, inside, errs, singular
 
 
-#: Status codes of :func:`pose6_distinct` (``flags >> 1``).
-OK, NOT_FINITE, NOT_ROTATION, NEEDS_CLEANUP, BAD_REF = 0, 1, 2, 3, 4
+#: Status codes of :func:`pose6_distinct` (``(result >> 1) & 7``).
+OK, NOT_FINITE, NOT_ROTATION, NEEDS_CLEANUP, BAD_REF, OVERFLOW = 0, 1, 2, 3, 4, 5
+#: :func:`pose6_distinct`'s result is ``count << COUNT_SHIFT | status << 1 | singular``.
+COUNT_SHIFT = 4
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
-def pose6_distinct(f64: np.ndarray, i64: np.ndarray, q_ref: np.ndarray, goal: np.ndarray,
-                   tol: float) -> tuple[np.ndarray, np.ndarray, int]:
+def pose6_distinct(arm: np.ndarray, q_ref: np.ndarray, goal: np.ndarray, tol: float,
+                   rows: np.ndarray, inside: np.ndarray) -> int:
     """The distinct solutions of a pose goal for a 6R chain of a family, in one call.
 
     The goal is checked first (finite, a rotation matrix); then the family's closed form,
@@ -107,28 +109,33 @@ def pose6_distinct(f64: np.ndarray, i64: np.ndarray, q_ref: np.ndarray, goal: np
     model's FK and polished, duplicates (closer than 1e-6 rad on every joint, modulo 2 pi)
     merged, each solution's solved joints at their 2 pi variants inside the limits nearest to
     ``q_ref`` (the wrapped value when there is none there), nearest to ``q_ref`` first. Nearby
-    distinct solutions are all kept. Everything about the arm comes in two flat arrays (one
-    compiled call with few arguments: the call itself is a good part of the time).
+    distinct solutions are all kept. Everything about the arm comes in one flat array and the
+    answer goes into two arrays of the caller, with one integer back (one compiled call with
+    few arguments and no array handed back: the call itself, and each array passed or
+    returned, is a good part of the time).
 
     Args:
-        f64: The arm's real constants, flattened (:func:`pack6`): axes ``h`` (18), points
-            ``o`` (18), tool pose ``m`` (16), signs (6), the lower and upper joint limits
-            (dof each), the packed joints and the packed frames of the model.
-        i64: Its integer constants: ``[code, inverted, frame index, number of solved joints k,
-            joint rows, joint columns, frame rows, frame columns, path columns, chain joints
-            (6), solved joints (k), joint paths of the frames]``.
+        arm: The arm's constants, flattened (:func:`pack6`): first its integers (their bits in
+            float64 slots): ``[number of integers, code, inverted, frame index, number of solved
+            joints k, joint rows, joint columns, frame rows, frame columns, path columns, chain
+            joints (6), solved joints (k), joint paths of the frames, mask of the solved joints
+            (dof)]``, then its reals: axes ``h`` (18), points ``o`` (18), tool pose ``m``
+            (16), signs (6), the lower and upper joint limits (dof each), the packed joints and
+            the packed frames of the model.
         q_ref: ``(dof,)`` reference configuration [rad].
         goal: ``(4, 4)`` target pose (its last row is ignored).
         tol: Acceptance tolerance [m] and [rad].
+        rows: ``(cap, dof + 2)`` receives each solution's joints and its position [m] and
+            rotation [rad] errors, nearest to ``q_ref`` first.
+        inside: ``(cap,)`` receives whether each lies inside the limits.
 
     Returns:
-        ``(rows, inside, flags)``: ``rows`` ``(k, dof + 2)`` holds each solution's joints and
-        its position [m] and rotation [rad] errors, nearest to ``q_ref`` first; ``inside``
-        ``(k,)`` whether each lies inside the limits; ``flags`` is
-        ``2 * status + singular`` (status :data:`OK`, :data:`NOT_FINITE`,
-        :data:`NOT_ROTATION`, :data:`NEEDS_CLEANUP` for a rotation that is off by more
-        than round-off and must be orthonormalised first, :data:`BAD_REF` for a ``q_ref``
-        with NaN or inf).
+        ``count << COUNT_SHIFT | status << 1 | singular``: the number of solutions (the first
+        rows of ``rows`` and ``inside``), the status (:data:`OK`, :data:`NOT_FINITE`,
+        :data:`NOT_ROTATION`, :data:`NEEDS_CLEANUP` for a rotation that is off by more than
+        round-off and must be orthonormalised first, :data:`BAD_REF` for a ``q_ref`` with NaN
+        or inf, :data:`OVERFLOW` when the family gave more candidates than ``cap``: nothing
+        was written) and whether the goal is at a singularity.
     """
     dof = q_ref.shape[0]
     status = OK
@@ -153,36 +160,39 @@ def pose6_distinct(f64: np.ndarray, i64: np.ndarray, q_ref: np.ndarray, goal: np
         elif dev > 1e-14:
             status = NEEDS_CLEANUP
     if status != OK:
-        return np.empty((0, dof + 2)), np.empty(0, dtype=np.bool_), 2 * status
-    h = f64[0:18].reshape((6, 3))  # views: no copies
+        return status << 1
+    ni = arm[0:1].view(np.int64)[0]
+    i64 = arm[0:ni].view(np.int64)  # views: no copies
+    f64 = arm[ni:]
+    h = f64[0:18].reshape((6, 3))
     o = f64[18:36].reshape((6, 3))
     m = f64[36:52].reshape((4, 4))
     sign = f64[52:58]
     lower = f64[58:58 + dof]
     upper = f64[58 + dof:58 + 2 * dof]
-    code, inverted, f, k = i64[0], i64[1] != 0, i64[2], i64[3]
-    nj, jw, nf, fw, pw = i64[4], i64[5], i64[6], i64[7], i64[8]
+    code, inverted, f, k = i64[1], i64[2] != 0, i64[3], i64[4]
+    nj, jw, nf, fw, pw = i64[5], i64[6], i64[7], i64[8], i64[9]
     at = 58 + 2 * dof
     jd = f64[at:at + nj * jw].reshape((nj, jw))
     at += nj * jw
     fd = f64[at:at + nf * fw].reshape((nf, fw))
-    joints = i64[9:15]
-    cols = i64[15:15 + k]
-    paths = i64[15 + k:15 + k + nf * pw].reshape((nf, pw))
+    joints = i64[10:16]
+    cols = i64[16:16 + k]
+    at = 16 + k + nf * pw
+    paths = i64[16 + k:at].reshape((nf, pw))
+    is_col = i64[at:at + dof]
     raw, n, singular = _candidates(code, inverted, h, o, m, joints, sign, q_ref, goal)
-    is_col = np.zeros(dof, dtype=np.bool_)
-    for c in range(k):
-        is_col[cols[c]] = True
-    rows, inside = distinct_rows(raw, n, joints, sign, cols, is_col, q_ref, goal, jd, fd, paths,
-                                 f, tol, lower, upper)
-    return rows, inside, 2 * OK + (1 if singular else 0)
+    if n > rows.shape[0] or n > inside.shape[0]:
+        return OVERFLOW << 1
+    count = distinct_rows(raw, n, joints, sign, cols, is_col, q_ref, goal, jd, fd, paths, f,
+                          tol, lower, upper, rows, inside)
+    return count << COUNT_SHIFT | OK << 1 | (1 if singular else 0)
 
 
 def pack6(h: np.ndarray, o: np.ndarray, m: np.ndarray, sign: np.ndarray, lower: np.ndarray,
           upper: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, code: int,
-          inverted: bool, f: int, joints: np.ndarray,
-          cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The two flat arrays of :func:`pose6_distinct` for a 6R chain and its model.
+          inverted: bool, f: int, joints: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """The flat array of an arm's constants that :func:`pose6_distinct` takes.
 
     Args:
         h: ``(6, 3)`` axes of the solver chain.
@@ -202,7 +212,10 @@ def pack6(h: np.ndarray, o: np.ndarray, m: np.ndarray, sign: np.ndarray, lower: 
     """
     f64 = np.concatenate([np.ravel(h), np.ravel(o), np.ravel(m), np.ravel(sign), lower, upper,
                           np.ravel(jd), np.ravel(fd)]).astype(np.float64)
-    i64 = np.concatenate([[code, int(inverted), f, len(cols), jd.shape[0], jd.shape[1],
+    mask = np.zeros(lower.shape[0], dtype=np.int64)
+    mask[cols] = 1
+    i64 = np.concatenate([[0, code, int(inverted), f, len(cols), jd.shape[0], jd.shape[1],
                            fd.shape[0], fd.shape[1], paths.shape[1]], joints, cols,
-                          np.ravel(paths)]).astype(np.int64)
-    return np.ascontiguousarray(f64), np.ascontiguousarray(i64)
+                          np.ravel(paths), mask]).astype(np.int64)
+    i64[0] = len(i64)
+    return np.ascontiguousarray(np.concatenate([i64.view(np.float64), f64]))

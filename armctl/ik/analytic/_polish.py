@@ -417,24 +417,25 @@ def inspect_pose(t: np.ndarray) -> tuple[bool, float, float]:
 def distinct_rows(raw: np.ndarray, count: int, joints: np.ndarray, sign: np.ndarray,
                   cols: np.ndarray, is_col: np.ndarray, q_ref: np.ndarray, goal: np.ndarray,
                   jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int, tol: float,
-                  lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  lower: np.ndarray, upper: np.ndarray, out: np.ndarray,
+                  inside: np.ndarray) -> int:
     """:func:`assemble` for a pose goal with one row per solution, in one pass.
 
     The same rows in the same order as ``assemble(..., POSE, ..., variants=False)`` (each
     candidate checked on the FK, polished when it is off by more than round-off, kept if within
     ``tol`` and not a duplicate of an earlier one modulo 2 pi; each solved joint at its 2 pi
     variant inside the limits nearest ``q_ref``; stably sorted by distance to ``q_ref``), built
-    straight into the output without intermediate arrays.
+    straight into the caller's arrays (an array handed back to Python costs more than one
+    allocated there and passed in). The arguments are :func:`assemble`'s; ``out``
+    ``(>= count, dof + 2)`` receives the rows, each the joints [rad] followed by the position
+    [m] and rotation [rad] errors, and ``inside`` ``(>= count,)`` whether each row lies inside
+    the limits.
 
     Returns:
-        ``(rows (m, dof + 2), within_limits (m,))``: each row the joints [rad] followed by the
-        position [m] and rotation [rad] errors (one array: each array handed back to Python
-        costs more than a slice of it there).
+        The number of solutions ``m`` (rows ``0 .. m - 1`` of ``out`` and ``inside``).
     """
     dof = q_ref.shape[0]
     cap = max(count, 1)
-    out = np.empty((cap, dof + 2))
-    inside = np.empty(cap, dtype=np.bool_)
     # one scratch allocation for the rest (each allocation costs about as much as an FK joint)
     nc = cols.shape[0]
     scratch = np.empty(cap * (1 + nc) + dof + 25)
@@ -515,4 +516,4 @@ def distinct_rows(raw: np.ndarray, count: int, joints: np.ndarray, sign: np.ndar
         inside[at] = within
         dist[at] = d
         m += 1
-    return out[:m], inside[:m]
+    return m

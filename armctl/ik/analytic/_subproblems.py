@@ -136,6 +136,31 @@ def rot_into(k: np.ndarray, t: float, r: np.ndarray) -> None:
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def rot_cs_into(k: np.ndarray, c: float, s: float, r: np.ndarray) -> None:
+    """:func:`rot_into` from the cosine ``c`` and sine ``s`` of the angle (no trigonometry)."""
+    v = 1.0 - c
+    x, y, z = k[0], k[1], k[2]
+    r[0, 0] = c + x * x * v
+    r[0, 1] = x * y * v - z * s
+    r[0, 2] = x * z * v + y * s
+    r[1, 0] = y * x * v + z * s
+    r[1, 1] = c + y * y * v
+    r[1, 2] = y * z * v - x * s
+    r[2, 0] = z * x * v - y * s
+    r[2, 1] = z * y * v + x * s
+    r[2, 2] = c + z * z * v
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def rotv_cs_into(k: np.ndarray, c: float, s: float, x: np.ndarray, out: np.ndarray) -> None:
+    """``out = rot(k, t) @ x`` from the cosine ``c`` and sine ``s`` of ``t`` (``out`` not ``x``)."""
+    kx = (k[0] * x[0] + k[1] * x[1] + k[2] * x[2]) * (1.0 - c)
+    out[0] = x[0] * c + (k[1] * x[2] - k[2] * x[1]) * s + k[0] * kx
+    out[1] = x[1] * c + (k[2] * x[0] - k[0] * x[2]) * s + k[1] * kx
+    out[2] = x[2] * c + (k[0] * x[1] - k[1] * x[0]) * s + k[2] * kx
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def mm_into(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
     """``out = a @ b`` for 3x3 matrices (``out`` distinct from both)."""
     for i in range(3):
@@ -210,6 +235,27 @@ def sp1(k: np.ndarray, p: np.ndarray, q: np.ndarray, tol: float) -> tuple[float,
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
+def sp1_cs(k: np.ndarray, p: np.ndarray, q: np.ndarray,
+           tol: float) -> tuple[float, float, float, bool]:
+    """:func:`sp1` with the cosine and sine of the angle: ``(t, cos t, sin t, degenerate)``.
+
+    The cosine and sine come from the same two products as the angle (no trigonometry); a
+    degenerate problem gives ``(0, 1, 0, True)``.
+    """
+    kp = k[0] * p[0] + k[1] * p[1] + k[2] * p[2]
+    kq = k[0] * q[0] + k[1] * q[1] + k[2] * q[2]
+    p0, p1, p2 = p[0] - kp * k[0], p[1] - kp * k[1], p[2] - kp * k[2]
+    q0, q1, q2 = q[0] - kq * k[0], q[1] - kq * k[1], q[2] - kq * k[2]
+    if (math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) <= tol
+            or math.sqrt(q0 * q0 + q1 * q1 + q2 * q2) <= tol):
+        return 0.0, 1.0, 0.0, True
+    s = (k[0] * (p1 * q2 - p2 * q1) + k[1] * (p2 * q0 - p0 * q2) + k[2] * (p0 * q1 - p1 * q0))
+    c = p0 * q0 + p1 * q1 + p2 * q2
+    r = math.hypot(s, c)  # |pp| |qp| > 0: both are off the axis
+    return math.atan2(s, c), c / r, s / r, False
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def lin_trig(a: float, b: float, e: float, scale: float, out: np.ndarray) -> int:
     """Solve ``a cos t + b sin t = e`` for ``t`` [rad].
 
@@ -237,6 +283,37 @@ def lin_trig(a: float, b: float, e: float, scale: float, out: np.ndarray) -> int
         return 1
     out[0] = wrap(phi + d)
     out[1] = wrap(phi - d)
+    return 2
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def lin_trig_cs(a: float, b: float, e: float, scale: float, out: np.ndarray,
+                cs: np.ndarray) -> int:
+    """:func:`lin_trig` with the cosine and sine of each angle in ``cs`` ``(>=2, 2)``.
+
+    The same angles in ``out``; ``cs[i]`` is ``(cos out[i], sin out[i])`` from the equation's
+    own coefficients (no trigonometry beyond the angles'). Nothing is written to ``cs`` for a
+    continuum (-1).
+    """
+    r = math.hypot(a, b)
+    if r <= 1e-11 * scale:
+        return -1 if abs(e) <= 1e-9 * scale else 0
+    x = e / r
+    if abs(x) > 1.0 + 1e-5:  # as lin_trig
+        return 0
+    x = min(1.0, max(-1.0, x))
+    phi = math.atan2(b, a)
+    d = math.acos(x)
+    cp, sp = a / r, b / r
+    if d < 1e-12:
+        out[0] = wrap(phi)
+        cs[0, 0], cs[0, 1] = cp, sp
+        return 1
+    sd = math.sqrt((1.0 - x) * (1.0 + x))  # sin d
+    out[0] = wrap(phi + d)
+    cs[0, 0], cs[0, 1] = cp * x - sp * sd, sp * x + cp * sd
+    out[1] = wrap(phi - d)
+    cs[1, 0], cs[1, 1] = cp * x + sp * sd, sp * x - cp * sd
     return 2
 
 

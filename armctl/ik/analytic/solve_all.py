@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -13,9 +13,10 @@ from armctl.errors import InputError
 from armctl.ik.analytic import _families as F
 from armctl.ik.analytic._pipeline import (
     BAD_REF,
+    COUNT_SHIFT,
     GENERAL,
-    NEEDS_CLEANUP,
     NOT_FINITE,
+    NOT_ROTATION,
     PAIR,
     PARALLEL,
     SPHERICAL,
@@ -76,7 +77,8 @@ class IKSolutions:
         family: The decomposition used (see :mod:`armctl.ik.analytic.classify`).
         free: Names of the joints held at their ``q_ref`` value (the free joint of a redundant
             arm; for a position goal, every joint but the three that place the point).
-        q_ref: The reference configuration the rows are sorted by [rad].
+        q_ref: The reference configuration the rows are sorted by [rad] (read-only when
+            ``ik_all`` took its default, the middle of the ranges: results share it).
         contacts: ``None`` when collisions were not checked; else per row the deepest contact
             of that configuration (pair, distance, depth), or ``None`` for a row free of
             contact (see :meth:`checked`).
@@ -372,32 +374,45 @@ def _solve(model: KinematicModel, dec: Decomposition, goal: Target, ref: Array,
     return q, inside, errs, bool(singular)
 
 
-@dataclass(frozen=True)
-class _Plan:
+#: Candidates a closed form gives at most, by family code (the 1-D search and the general
+#: method up to their buffer): the rows :func:`pose6_distinct` may write.
+_MOST = {SPHERICAL: 8, PARALLEL: 8, PAIR: CAPACITY, GENERAL: CAPACITY}
+
+
+class _Plan(NamedTuple):
     """What the one-call path of :func:`ik_all` needs of an arm and frame, computed once.
 
+    A named tuple: the call unpacks it in one step.
+
     Attributes:
-        f64: The real constants of :func:`pose6_distinct` (``None``: no one-call path: no
-            pose decomposition, or joints held at ``q_ref``).
-        i64: Its integer constants.
-        middle: The middle of the joint ranges (the default ``q_ref``) [rad].
+        arm: The constants of :func:`pose6_distinct` (``None``: no one-call path: no pose
+            decomposition, or joints held at ``q_ref``).
+        middle: The middle of the joint ranges (the default ``q_ref``) [rad], as the kernel
+            takes it (writable arrays: one compiled version).
+        shared_middle: A read-only view of it, the ``q_ref`` of the results of calls without
+            one (they share it).
         label: The decomposition's label.
         free: Names of the held joints.
         dof: The number of joints.
+        rows: The shape of the solution buffer, ``(most candidates, dof + 2)``.
+        most: Its number of rows.
     """
 
-    f64: Array | None
-    i64: npt.NDArray[np.int64]
+    arm: Array | None
     middle: Array
+    shared_middle: Array
     label: str
     free: tuple[str, ...]
     dof: int
+    rows: tuple[int, int]
+    most: int
 
 
 #: Plans by ``(id(model), frame)``; an entry leaves with its model (``weakref.finalize``).
 _PLANS: dict[tuple[int, str | None], _Plan] = {}
-#: The dtype the compiled path takes (compared as a dtype instance: no conversion per call).
+#: The dtypes the compiled path takes (compared as dtype instances: no conversion per call).
 _F64 = np.dtype(np.float64)
+_BOOL = np.dtype(np.bool_)
 _POSE_SHAPE = (4, 4)
 
 
@@ -408,10 +423,10 @@ def _plan(model: KinematicModel, frame: str | None) -> _Plan:
     if plan is not None:
         return plan
     f = model.frame_index(frame)
-    f64: Array | None = None
-    i64 = np.zeros(0, dtype=np.int64)
+    arm: Array | None = None
     label = ""
     free: tuple[str, ...] = ()
+    most = 0
     try:
         dec = decomposition(model, frame, GoalKind.POSE)
     except NoDecompositionError:
@@ -421,11 +436,15 @@ def _plan(model: KinematicModel, frame: str | None) -> _Plan:
         c = dec.chain
         if not dec.free and c.n == 6:
             tree = model.tree
-            f64, i64 = pack6(c.h, c.o, c.m, np.asarray(c.sign, dtype=float), model.lower,
-                             model.upper, tree.joints, tree.frames, tree.paths,
-                             _CODE[dec.family], dec.inverted, f, np.asarray(c.index),
-                             np.asarray(dec.columns))
-    plan = _Plan(f64, i64, model.middle(), label, free, model.dof)
+            code = _CODE[dec.family]
+            most = _MOST[code]
+            arm = pack6(c.h, c.o, c.m, np.asarray(c.sign, dtype=float), model.lower,
+                        model.upper, tree.joints, tree.frames, tree.paths, code, dec.inverted, f,
+                        np.asarray(c.index), np.asarray(dec.columns))
+    middle = np.array(model.middle(), dtype=float)
+    shared = middle.view()
+    shared.flags.writeable = False
+    plan = _Plan(arm, middle, shared, label, free, model.dof, (most, model.dof + 2), most)
     _PLANS[key] = plan
     weakref.finalize(model, _PLANS.pop, key, None)
     return plan
@@ -444,32 +463,41 @@ def _fast(model: KinematicModel, pose: Goal | npt.ArrayLike, q_ref: npt.ArrayLik
         arr, frame = pose.pose, pose.frame
     else:
         return None
-    plan = _PLANS.get((id(model), frame)) or _plan(model, frame)
-    if plan.f64 is None:
+    consts, middle, shared, label, free, dof, shape, most = (
+        _PLANS.get((id(model), frame)) or _plan(model, frame))
+    if consts is None:
         return None
     if q_ref is None:
-        ref = plan.middle.copy()  # the result's own (the plan's stays untouched)
+        ref, result_ref = middle, shared  # the kernel only reads it
     elif (type(q_ref) is np.ndarray and q_ref.dtype == _F64
-          and q_ref.shape == plan.middle.shape):
-        ref = q_ref.copy()  # checked for NaN by the kernel
+          and q_ref.shape == middle.shape):
+        ref = result_ref = q_ref.copy()  # the result's own; checked for NaN by the kernel
     else:
-        ref = np.array(model.as_q(q_ref, "q_ref"))
-    rows, inside, flags = pose6_distinct(plan.f64, plan.i64, ref, arr, tol)
-    if flags > 1:
-        status = flags >> 1
+        ref = result_ref = np.array(model.as_q(q_ref, "q_ref"))
+    rows = np.empty(shape)
+    inside = np.empty(most, _BOOL)
+    res = pose6_distinct(consts, ref, arr, tol, rows, inside)
+    if res & 14:  # a status other than OK
+        status = (res >> 1) & 7
         if status == BAD_REF:
             model.as_q(ref, "q_ref")  # raises with the joint values
-        if status == NEEDS_CLEANUP:
-            return None  # the general path orthonormalises it
         if status == NOT_FINITE:
             raise InputError("a pose must be a finite 4x4 transform; it contains NaN or inf")
-        raise InputError("the pose's rotation part is not a rotation matrix (R R^T != I or "
-                         "det < 0)")
+        if status == NOT_ROTATION:
+            raise InputError("the pose's rotation part is not a rotation matrix (R R^T != I "
+                             "or det < 0)")
+        return None  # NEEDS_CLEANUP (the general path orthonormalises it) or OVERFLOW
     # a frozen dataclass's __init__ sets each field through object.__setattr__; filling the
-    # instance dict at once is the same object for a fraction of the cost
-    dof = plan.dof
+    # instance dict directly is the same object for a fraction of the cost
+    m = res >> COUNT_SHIFT
     sols = object.__new__(IKSolutions)
-    sols.__dict__.update(q=rows[:, :dof], within_limits=inside, position_error=rows[:, dof],
-                         rotation_error=rows[:, dof + 1], singular=flags == 1,
-                         family=plan.label, free=plan.free, q_ref=ref)
+    fields = sols.__dict__
+    fields["q"] = rows[:m, :dof]
+    fields["within_limits"] = inside[:m]
+    fields["position_error"] = rows[:m, dof]
+    fields["rotation_error"] = rows[:m, dof + 1]
+    fields["singular"] = res & 1 == 1
+    fields["family"] = label
+    fields["free"] = free
+    fields["q_ref"] = result_ref
     return sols

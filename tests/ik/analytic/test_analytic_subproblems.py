@@ -6,7 +6,17 @@ import math
 
 import numpy as np
 
-from armctl.ik.analytic._subproblems import circle2, lin_trig, rot, sp1, trig2, wrap
+from armctl.ik.analytic._subproblems import (
+    circle2,
+    lin_trig,
+    lin_trig_cs,
+    rot,
+    rot_cs_into,
+    sp1,
+    sp1_cs,
+    trig2,
+    wrap,
+)
 
 
 def _unit(rng: np.random.Generator) -> np.ndarray:
@@ -44,6 +54,36 @@ def test_lin_trig_two_one_none_and_continuum() -> None:
     assert lin_trig(3.0, 4.0, 5.1, 1.0, out) == 0
     assert lin_trig(0.0, 0.0, 0.0, 1.0, out) == -1
     assert lin_trig(0.0, 0.0, 1.0, 1.0, out) == 0
+
+
+def test_the_cosine_and_sine_variants_match_the_trigonometry_of_their_angles() -> None:
+    # sp1_cs, lin_trig_cs and rot_cs_into give the same angles as sp1 and lin_trig, with the
+    # cosines and sines that math.cos / math.sin of those angles give (and the same rotation)
+    rng = np.random.default_rng(3)
+    out, out_cs, cs = np.empty(2), np.empty(2), np.empty((2, 2))
+    r = np.empty((3, 3))
+    for _ in range(300):
+        k, p, t = _unit(rng), rng.normal(size=3), rng.uniform(-np.pi, np.pi)
+        q = rot(k, t) @ p
+        got, c, s, deg = sp1_cs(k, p, q, 1e-9)
+        assert not deg and got == sp1(k, p, q, 1e-9)[0]
+        assert abs(c - math.cos(got)) < 1e-14 and abs(s - math.sin(got)) < 1e-14
+        rot_cs_into(k, c, s, r)
+        np.testing.assert_allclose(r, rot(k, got), atol=1e-14)
+        a, b = rng.normal(size=2)
+        e = a * math.cos(t) + b * math.sin(t) * rng.choice([1.0, 1.0 + 1e-7])
+        n = lin_trig(a, b, e, 1.0, out)
+        assert lin_trig_cs(a, b, e, 1.0, out_cs, cs) == n
+        for i in range(n):
+            assert out_cs[i] == out[i]
+            assert abs(cs[i, 0] - math.cos(out[i])) < 1e-12
+            assert abs(cs[i, 1] - math.sin(out[i])) < 1e-12
+    z = np.array([0.0, 0.0, 1.0])
+    assert sp1_cs(z, np.array([0.0, 0.0, 2.0]), np.array([1.0, 0.0, 0.0]), 1e-9)[3]
+    assert lin_trig_cs(3.0, 4.0, 5.0, 1.0, out, cs) == 1
+    assert abs(cs[0, 0] - 0.6) < 1e-15 and abs(cs[0, 1] - 0.8) < 1e-15
+    assert lin_trig_cs(3.0, 4.0, 5.1, 1.0, out, cs) == 0
+    assert lin_trig_cs(0.0, 0.0, 0.0, 1.0, out, cs) == -1
 
 
 def test_trig2_finds_every_root_of_a_product_of_two_sinusoids() -> None:

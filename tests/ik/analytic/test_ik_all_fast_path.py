@@ -52,3 +52,48 @@ def test_one_call_path_keeps_the_input_checks():
         ik_all(arm, goal, arm.middle()[:3])
     with pytest.raises(InputError, match="4x4"):
         ik_all(arm, goal[:3])
+
+
+@pytest.mark.parametrize("name", ["ur5e", "wx250s"])
+def test_one_call_path_without_q_ref_shares_a_read_only_middle(name):
+    # without q_ref the rows sort by the middle of the ranges, as the general path does; the
+    # results share that reference read-only (nothing can change it under another result)
+    arm = load_arm(name)
+    goal = arm.fk(arm.sample(np.random.default_rng(5)))
+    a, b = ik_all(arm, goal), ik_all(arm, goal)
+    general = ik_all(arm, goal.tolist())
+    np.testing.assert_array_equal(a.q_ref, arm.middle())
+    np.testing.assert_allclose(a.q, general.q, atol=1e-12, rtol=0)
+    assert not a.q_ref.flags.writeable
+    with pytest.raises(ValueError):
+        a.q_ref[0] = 1.0
+    np.testing.assert_array_equal(b.q_ref, arm.middle())
+    assert not np.shares_memory(a.q, b.q)  # each result owns its rows
+    ref = arm.middle()
+    own = ik_all(arm, goal, ref)
+    ref[0] += 1.0  # the caller's array stays the caller's
+    np.testing.assert_array_equal(own.q_ref, arm.middle())
+
+
+def test_one_call_path_hands_a_full_buffer_to_the_general_path(monkeypatch):
+    # a family that gave more candidates than the buffer holds is not cut short: the call
+    # falls back to the general path, which lists every solution
+    from armctl.ik.analytic import solve_all
+
+    arm = load_arm("ur5e")
+    rng = np.random.default_rng(8)
+    goals = [arm.fk(q) for q in arm.sample(rng, 5)]
+    full = [ik_all(arm, g) for g in goals]
+    monkeypatch.setattr(solve_all, "_PLANS", {})
+    for code in list(solve_all._MOST):
+        monkeypatch.setitem(solve_all._MOST, code, 2)
+    from armctl.ik.analytic._pipeline import OVERFLOW, pose6_distinct
+
+    for g, want in zip(goals, full, strict=True):
+        got = ik_all(arm, g)
+        assert len(want) > 2
+        np.testing.assert_allclose(got.q, want.q, atol=1e-12, rtol=0)
+        plan = solve_all._PLANS[(id(arm), None)]
+        res = pose6_distinct(plan.arm, plan.middle, g, 1e-9, np.empty(plan.rows),
+                             np.empty(plan.most, dtype=bool))
+        assert (res >> 1) & 7 == OVERFLOW  # the kernel refused to write past the buffer
