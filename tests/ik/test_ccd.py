@@ -20,7 +20,8 @@ DATA = Path(__file__).parent / "data"
 RHO2 = 0.04  # weight of the orientation term [m^2]
 
 
-def _objective_by_fk(arm: Arm, goals, q: np.ndarray, j: int, theta: float) -> float:
+def _objective_by_fk(arm: Arm, goals, q: np.ndarray, j: int, theta: float,
+                     w1: float = 1.0, w2: float = RHO2) -> float:
     """The lecture's g(theta) = sum_goals w1 g1 + w2 g2, evaluated by forward kinematics."""
     qt = q.copy()
     qt[j] += theta
@@ -32,22 +33,23 @@ def _objective_by_fk(arm: Arm, goals, q: np.ndarray, j: int, theta: float) -> fl
             continue
         t = arm.fk(qt, goal.frame)
         if isinstance(goal, (PositionGoal, PoseGoal, DirectionGoal)):
-            total += goal.weight * float((goal.position - o) @ (t[:3, 3] - o))
+            total += goal.weight * w1 * float((goal.position - o) @ (t[:3, 3] - o))
         if isinstance(goal, (OrientationGoal, PoseGoal)):
-            total += goal.weight * RHO2 * float(np.sum(goal.rotation * t[:3, :3]))
+            total += goal.weight * w2 * float(np.sum(goal.rotation * t[:3, :3]))
         if isinstance(goal, DirectionGoal):
-            total += goal.weight * RHO2 * float(goal.direction @ (t[:3, :3] @ goal.axis))
+            total += goal.weight * w2 * float(goal.direction @ (t[:3, :3] @ goal.axis))
     return total
 
 
-def _closed_form_step(arm: Arm, goals, q: np.ndarray, j: int) -> float:
+def _closed_form_step(arm: Arm, goals, q: np.ndarray, j: int, w1: float = 1.0,
+                      w2: float = RHO2) -> float:
     ga = pack_goals(arm, goals)
     world = np.empty((arm.dof, 3, 4))
     E.joint_frames(q, arm.tree.joints, arm.tree.parent, world)
     w = world[j, :, :3] @ arm.tree.joint_axis(j)
     o = world[j, :, 3].copy()
     pose = np.array([arm.fk(q, g.frame) for g in goals])
-    k1, k2, k3 = E.ccd_coefficients(w, o, ga.gt, ga.gd, ga.gw, ga.mask, j, pose, RHO2)
+    k1, k2, k3 = E.ccd_coefficients(w, o, ga.gt, ga.gd, ga.gw, ga.mask, j, pose, w2, w1)
     return E.ccd_angle(k1, k2, k3, arm.lower[j] - q[j], arm.upper[j] - q[j])
 
 
@@ -84,6 +86,22 @@ def test_joint_step_is_the_brute_force_maximum(arm_name: str, kind: str):
             spacing = grid[1] - grid[0]
             gap = abs((step - best + np.pi) % (2 * np.pi) - np.pi)
             assert gap <= spacing + 1e-9 or abs(values.max() - g_step) < 1e-9
+
+
+@pytest.mark.parametrize("w1, w2", [(1.0, 0.0), (0.0, 0.3), (2.5, 0.004)])
+@pytest.mark.parametrize("kind", ["pose", "direction"])
+def test_weighted_joint_step_is_the_brute_force_maximum(kind: str, w1: float, w2: float):
+    # CCDWeights(w1, w2): the closed form maximises w1 g1 + w2 g2 for any weights
+    arm = load_arm("ur5e")
+    rng = np.random.default_rng(11)
+    q_goal, q = arm.sample(rng), arm.sample(rng)
+    goals = _goals(arm, q_goal, kind)
+    for j in arm.chain():
+        step = _closed_form_step(arm, goals, q, j, w1, w2)
+        lo, hi = arm.lower[j] - q[j], arm.upper[j] - q[j]
+        grid = np.linspace(max(lo, -2 * np.pi), min(hi, 2 * np.pi), 1081)
+        values = np.array([_objective_by_fk(arm, goals, q, j, t, w1, w2) for t in grid])
+        assert _objective_by_fk(arm, goals, q, j, step, w1, w2) >= values.max() - 1e-9
 
 
 def test_limits_pick_the_better_end():

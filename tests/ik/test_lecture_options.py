@@ -101,3 +101,23 @@ def test_bad_options_are_refused(kwargs: dict, match: str) -> None:
 def test_bad_weights_are_refused(args: tuple, match: str) -> None:
     with pytest.raises(InputError, match=match):
         CCDWeights(*args)
+
+
+def test_the_fixed_gain_step_is_alpha_jt_e_by_finite_differences() -> None:
+    from armctl.ik import PositionGoal
+
+    rng = np.random.default_rng(9)
+    q0 = ARM.sample(rng) * 0.5
+    p_goal = ARM.fk(ARM.sample(rng) * 0.5)[:3, 3]
+    alpha = 0.05
+    res = ARM.ik(PositionGoal(p_goal), q0, solver="jt", options=IKOptions(
+        jt_gain=alpha, max_iterations=1, restarts=0, time_limit=5.0))
+    h = 1e-7  # J of the tool position by central differences of FK, an independent Jacobian
+    jac = np.empty((3, ARM.dof))
+    for i in range(ARM.dof):
+        d = np.zeros(ARM.dof)
+        d[i] = h
+        jac[:, i] = (ARM.fk(q0 + d)[:3, 3] - ARM.fk(q0 - d)[:3, 3]) / (2 * h)
+    expected = alpha * jac.T @ (p_goal - ARM.fk(q0)[:3, 3])
+    assert np.abs(expected).max() < 0.5  # below the step cap: the step is taken as it is
+    assert np.allclose(res.q - q0, expected, atol=1e-8)
