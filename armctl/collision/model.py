@@ -111,6 +111,7 @@ class CollisionModel:
     """
 
     def __init__(self, model: KinematicModel, scene: SceneSpec, allowed: CollisionSpec):
+        model.require_one_dof("the collision checker")
         self.model = model
         self.scene = scene
         self.allowed = allowed

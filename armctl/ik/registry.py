@@ -256,7 +256,10 @@ def solve(
     Raises:
         UnsupportedGoalError: For goals or constraints the solver cannot take (naming those that
             can).
+        InputError: For an arm with universal or ball joints (the solvers step 1-DOF joints).
     """
+    if model.multi_dof_joints:
+        model.require_one_dof("inverse kinematics")
     if avoid is None and not constraints and isinstance(goal, Goal):
         short = _SHORT[solver]
         if short is not None:  # one goal, a numerical method: the same checks, done once

@@ -272,3 +272,60 @@ def test_pose_errors(tmp_path: Path) -> None:
         _arm(tmp_path, ARM.replace("flat: [0, 1, 0, 0, 0, 0, 0, 0]", "flat: [0, 1, 0, 0, 0, 0, 0]"))
     with pytest.raises(ConfigError, match="swings"):
         _arm(tmp_path, ARM.replace("{rpy: [0, 0.5, 0]}", "{rotvec: [0, 2.5, 0]}"))
+
+
+def test_what_supports_1_dof_joints_only_refuses_clearly(tmp_path: Path) -> None:
+    arm = _arm(tmp_path)
+    from armctl.ik import PositionGoal
+
+    goal = PositionGoal([0.1, 0.0, 0.5])
+    for solver in ("auto", "dls", "pinv", "ccd"):
+        with pytest.raises(InputError, match=r"inverse kinematics supports 1-DOF joints only"):
+            arm.ik(goal, solver=solver)
+    from armctl.collision import CollisionModel
+    from armctl.ik.analytic.errors import NoDecompositionError
+    from armctl.motion.limits import MotionLimits
+
+    with pytest.raises(NoDecompositionError, match="multi-DOF joint"):
+        arm.ik_all(np.eye(4))
+    with pytest.raises(InputError, match="collision checker supports 1-DOF"):
+        CollisionModel.of(arm)
+    with pytest.raises(InputError, match=r"motion planning .* 1-DOF"):
+        MotionLimits.from_model(arm)
+    from armctl.ik.batch import solve_batch
+
+    with pytest.raises(InputError, match="batch inverse kinematics"):
+        solve_batch(arm, np.eye(4)[None])
+
+
+def test_a_servo_cannot_drive_a_ball_joint(tmp_path: Path) -> None:
+    text = ARM + """bus:
+  port: sim
+  protocol: feetech
+  servos:
+    shoulder: {id: 1, model: sts3215}
+"""
+    with pytest.raises(ConfigError, match="cannot drive a multi-DOF joint"):
+        _arm(tmp_path, text)
+
+
+def test_cli_fk_and_render(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from armctl.cli import main
+
+    p = tmp_path / "arm.yaml"
+    p.write_text(ARM)
+    q = Rotation.from_euler("xyz", [0.2, 0.1, -0.3]).as_quat(scalar_first=True)
+    args = ["fk", str(p), "--deg", "10", *(str(x) for x in q), "20", "5", "-10", "--json"]
+    assert main(args) == 0
+    import json
+
+    data = json.loads(capsys.readouterr().out)
+    full = np.array([math.radians(10), *q, math.radians(20), math.radians(5), math.radians(-10)])
+    np.testing.assert_allclose(data["matrix"], _hand_fk(full), atol=1e-12)
+    assert data["within_limits"] and data["clearance"] is None
+    assert main(["fk", str(p), "0", "1", "0", "0", "0", "0", "0"]) != 0
+    assert "expected 8 values (base_yaw, shoulder: 4 (quaternion w x y z)" in \
+        capsys.readouterr().err
+    assert main(["render", str(p), "-o", str(tmp_path / "r.png")]) == 0
+    assert "no scene or clearance drawn" in capsys.readouterr().out
+    assert (tmp_path / "r.png").stat().st_size > 0
