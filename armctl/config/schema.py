@@ -2,8 +2,8 @@
 
 This is what an arm YAML file or a URDF becomes after validation (see ``docs/config.md``). It is
 pure data: the compiled kinematic tree that computes poses lives in :mod:`armctl.kinematics`.
-Multi-DOF joints and Denavit-Hartenberg parameters of the YAML format are already expanded here
-into 1-DOF joints with an origin and an axis.
+Denavit-Hartenberg parameters of the YAML format are already turned into joint origins here;
+universal (2-DOF) and ball (3-DOF) joints are joints of their own (:class:`JointType`).
 """
 
 from __future__ import annotations
@@ -222,7 +222,7 @@ class LinkSpec:
 
 @dataclass(frozen=True)
 class ArmSpec:
-    """A validated arm description: a tree of links joined by 1-DOF joints.
+    """A validated arm description: a tree of links joined by joints (1-DOF, universal, ball).
 
     Attributes:
         name: Arm name.

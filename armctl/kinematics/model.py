@@ -602,6 +602,16 @@ class KinematicModel:
         return np.concatenate([np.atleast_1d(np.asarray(poses[name][j], dtype=float))
                                for j in self.joint_names])
 
+    def joint_values(self, q: npt.ArrayLike) -> dict[str, float | list[float]]:
+        """A joint vector as ``{joint name: value}``, for any arm.
+
+        A number for a 1-DOF joint, a list for a universal joint (2 angles [rad]) or a ball
+        joint (its quaternion ``w, x, y, z``).
+        """
+        arr = self.as_q(q)
+        return {name: (float(arr[sl.start]) if sl.stop - sl.start == 1 else arr[sl].tolist())
+                for name, sl in zip(self.joint_names, self._q_slices, strict=True)}
+
     def values_by_name(self, values: Sequence[float] | npt.ArrayLike) -> dict[str, float]:
         """A joint vector as a ``{joint name: value}`` mapping (1-DOF joints only).
 

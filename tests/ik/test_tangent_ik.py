@@ -99,3 +99,19 @@ def test_unreachable_is_no_success(arm: armctl.Arm) -> None:
 def test_what_the_tangent_methods_do_not_take(arm: armctl.Arm) -> None:
     with pytest.raises(InputError, match="solver 'nlp' supports 1-DOF joints only"):
         arm.ik(PositionGoal([0.1, 0, 0.5]), solver="nlp")
+
+
+def test_cli_ik_on_a_ball_arm(tmp_path_factory: pytest.TempPathFactory,
+                              capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from armctl.cli import main
+
+    p = tmp_path_factory.mktemp("cli") / "arm.yaml"
+    p.write_text(ARM)
+    assert main(["ik", str(p), "--xyz", "0.1", "0", "0.5", "--no-collisions", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["success"]
+    arm = armctl.load_arm(p)
+    np.testing.assert_allclose(arm.fk(np.array(data["q"]))[:3, 3], [0.1, 0, 0.5], atol=1e-4)
+    assert len(data["joints"]["shoulder"]) == 4
