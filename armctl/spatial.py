@@ -25,10 +25,15 @@ __all__ = [
     "matrix_to_rpy",
     "orthonormalize",
     "pose_error",
+    "quat_exp",
+    "quat_log",
+    "quat_multiply",
     "quat_to_matrix",
     "rotvec_to_matrix",
     "rpy_to_matrix",
     "slerp",
+    "swing_twist",
+    "swing_twist_quat",
     "transform_inverse",
 ]
 
@@ -305,3 +310,85 @@ def slerp(q0: npt.ArrayLike, q1: npt.ArrayLike, s: float) -> Array:
     theta = np.arccos(d)
     out = (np.sin((1 - s) * theta) * a + np.sin(s * theta) * b) / np.sin(theta)
     return out / np.linalg.norm(out)
+
+
+# ---- quaternion algebra (ball joints) ----------------------------------------------------------
+def quat_multiply(a: npt.ArrayLike, b: npt.ArrayLike) -> Array:
+    """Hamilton product ``a ⊗ b`` of quaternions ``(w, x, y, z)``.
+
+    The rotation ``a`` then, in the frame it moved, ``b``: ``R(a ⊗ b) = R(a) @ R(b)``.
+    """
+    aw, ax, ay, az = (float(x) for x in np.asarray(a, dtype=float).reshape(4))
+    bw, bx, by, bz = (float(x) for x in np.asarray(b, dtype=float).reshape(4))
+    return np.array([aw * bw - ax * bx - ay * by - az * bz,
+                     aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw])
+
+
+def quat_exp(rotvec: npt.ArrayLike) -> Array:
+    """Unit quaternion of a rotation vector ``angle * axis`` [rad]: ``(cos a/2, sin a/2 axis)``."""
+    v = np.asarray(rotvec, dtype=float).reshape(3)
+    angle = float(np.linalg.norm(v))
+    if angle < 1e-8:  # second-order series: sin(a/2)/a = 1/2 - a^2/48
+        return np.array([1.0 - angle * angle / 8.0, *(v * (0.5 - angle * angle / 48.0))])
+    return np.array([np.cos(angle / 2.0), *(v * (np.sin(angle / 2.0) / angle))])
+
+
+def quat_log(quat: npt.ArrayLike) -> Array:
+    """Rotation vector [rad] of a unit quaternion, the shortest arc (angle in [0, pi])."""
+    q = np.asarray(quat, dtype=float).reshape(4)
+    if q[0] < 0:
+        q = -q
+    vn = float(np.linalg.norm(q[1:]))
+    if vn < 1e-12:
+        return np.asarray(2.0 * q[1:], dtype=float)
+    return np.asarray(q[1:] * (2.0 * np.arctan2(vn, q[0]) / vn), dtype=float)
+
+
+def swing_twist_quat(quat: npt.ArrayLike, axis: npt.ArrayLike) -> tuple[Array, Array]:
+    """Split a unit quaternion into ``swing ⊗ twist``: a twist about ``axis``, then a swing.
+
+    Args:
+        quat: ``(w, x, y, z)``.
+        axis: The unit twist axis, in the frame the quaternion rotates from.
+
+    Returns:
+        ``(swing, twist)`` unit quaternions, ``w >= 0``; the swing turns about an axis
+        perpendicular to ``axis``.
+    """
+    q = np.asarray(quat, dtype=float).reshape(4)
+    q = q / np.linalg.norm(q)
+    if q[0] < 0:
+        q = -q
+    a = np.asarray(axis, dtype=float).reshape(3)
+    proj = float(np.dot(q[1:], a))
+    twist = np.array([q[0], *(proj * a)])
+    tn = float(np.linalg.norm(twist))
+    if tn < 1e-12:  # a half turn about an axis perpendicular to the twist axis: no twist
+        twist = np.array([1.0, 0.0, 0.0, 0.0])
+    else:
+        twist /= tn
+    conj = twist * np.array([1.0, -1.0, -1.0, -1.0])
+    swing = quat_multiply(q, conj)
+    return (-swing if swing[0] < 0 else swing), twist
+
+
+def swing_twist(quat: npt.ArrayLike, axis: npt.ArrayLike) -> tuple[float, float]:
+    """Swing and twist angles [rad] of a unit quaternion about a unit axis.
+
+    Args:
+        quat: ``(w, x, y, z)``: the rotation of a ball joint.
+        axis: Its twist axis.
+
+    Returns:
+        ``(swing, twist)``: the angle in [0, pi] between the rotated axis and the axis, and the
+        turn about the axis in [-pi, pi] (see :func:`swing_twist_quat`).
+    """
+    swing, twist = swing_twist_quat(quat, axis)
+    a = np.asarray(axis, dtype=float).reshape(3)
+    swing_angle = 2.0 * float(np.arctan2(np.linalg.norm(swing[1:]), abs(swing[0])))
+    twist_angle = 2.0 * float(np.arctan2(np.dot(twist[1:], a), twist[0]))
+    if twist_angle > np.pi:
+        twist_angle -= 2.0 * np.pi
+    return swing_angle, twist_angle

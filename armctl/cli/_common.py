@@ -199,7 +199,9 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
                  what: str = "joint values") -> np.ndarray:
     """Joint values from the command line, converted to SI (degrees only for rotary joints).
 
-    Rotary values are radians, or degrees with ``--deg``; prismatic values are metres.
+    Rotary values are radians, or degrees with ``--deg``; prismatic values are metres. A
+    universal joint takes its two angles, a ball joint four numbers: its unit quaternion
+    ``w x y z`` (never converted by ``--deg``).
 
     Raises:
         InputError: For a wrong count, a value that is not a finite number, a rotary value
@@ -210,12 +212,16 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
 
     from armctl.config.schema import JointType
 
-    if len(values) != arm.dof:
-        raise InputError(f"{what}: expected {arm.dof} values ({', '.join(arm.joint_names)}), "
-                         f"got {len(values)}")
-    out = np.empty(arm.dof)
+    if len(values) != arm.nq:
+        layout = ", ".join(
+            f"{n}: 4 (quaternion w x y z)" if t is JointType.BALL else
+            (f"{n}: 2 angles" if t is JointType.UNIVERSAL else n)
+            for n, t in zip(arm.joint_names, arm.joint_types, strict=True))
+        raise InputError(f"{what}: expected {arm.nq} values ({layout}), got {len(values)}")
+    out = np.empty(arm.nq)
+    owner = [j for j, t in enumerate(arm.joint_types) for _ in range(t.nq)]
     for i, raw in enumerate(values):
-        name = arm.joint_names[i]
+        name = arm.joint_names[owner[i]]
         try:
             v = float(raw)
         except ValueError:
@@ -224,7 +230,11 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
             raise InputError(f"{what}: {raw!r} (joint {name!r}) is not a finite number (NaN "
                              "and infinity are not accepted)")
         lo, hi = float(arm.lower[i]), float(arm.upper[i])
-        if arm.joint_types[i] is JointType.PRISMATIC:
+        jtype = arm.joint_types[owner[i]]
+        if jtype is JointType.BALL:  # a quaternion component: no unit, no --deg
+            out[i] = v
+            continue
+        if jtype is JointType.PRISMATIC:
             if not lo - 1e-9 <= v <= hi + 1e-9 and abs(v) >= 1.0 and lo <= v / 1000 <= hi:
                 raise InputError(
                     f"{what}: {raw} (joint {name!r}) is outside its limits [{lo:g}, {hi:g}] m; "
@@ -239,6 +249,8 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
                 f"{what}: {v:g} rad (joint {name!r}) is more than a full turn (2 pi = 6.283 "
                 f"rad), so it can only be degrees: did you mean --deg?{also}")
         out[i] = v
+    if arm.multi_dof_joints:
+        arm.as_q(out, what)  # a ball joint's quaternion must be of unit norm (names the joint)
     return out
 
 

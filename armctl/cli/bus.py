@@ -526,7 +526,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if args.reference == "zero":
         reference: dict[str, float] = {}
     elif args.reference in spec.poses:
-        reference = dict(spec.poses[args.reference])
+        reference = {name: value for name, value in spec.poses[args.reference].items()
+                     if not isinstance(value, tuple)}  # servos drive 1-DOF joints only
     else:
         raise InputError(f"--reference: {args.reference!r} is neither 'zero' nor a pose of "
                          f"the arm ({', '.join(spec.poses) or 'none defined'})")

@@ -417,8 +417,14 @@ def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[st
     rows = []
     idle = [] if req.constraints else not_involved(arm, req.goals)
     for i, name in enumerate(arm.joint_names):
-        v = float(res.q[i])
-        if arm.joint_types[i] is JointType.PRISMATIC:
+        sl = arm.q_index(i)
+        v = float(res.q[sl.start])
+        if arm.joint_types[i] is JointType.BALL:  # its quaternion, never in degrees
+            rows.append([name, " ".join(fmt(x, 6) for x in res.q[sl]), "quaternion w x y z"])
+        elif arm.joint_types[i] is JointType.UNIVERSAL:
+            rows.append([name, " ".join(fmt(math.degrees(x) if deg else x, 4 if deg else 6)
+                                        for x in res.q[sl]), "deg" if deg else "rad"])
+        elif arm.joint_types[i] is JointType.PRISMATIC:
             rows.append([name, fmt(v, 6), "m"])
         else:
             rows.append([name, fmt(math.degrees(v) if deg else v, 4 if deg else 6),
@@ -445,7 +451,7 @@ def _report(arm: Arm, req: IKRequest, res: IKResult, deg: bool) -> tuple[dict[st
                        "position_error": err.position, "rotation_error": err.rotation,
                        "reached": err.reached})
     data = {"success": res.success, "status": res.status.value, "solver": res.solver,
-            "q": res.q, "joints": arm.values_by_name(res.q), "not_involved": idle,
+            "q": res.q, "joints": arm.joint_values(res.q), "not_involved": idle,
             "iterations": res.iterations,
             "restarts": res.restarts, "time": res.time, "position_error": res.position_error,
             "rotation_error": res.rotation_error, "within_limits": res.within_limits,

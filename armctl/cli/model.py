@@ -198,7 +198,7 @@ def cmd_fk(args: argparse.Namespace) -> int:
     pose = arm.fk(q, frame) + 0.0  # + 0.0 turns -0.0 into 0.0
     rpy = matrix_to_rpy(pose[:3, :3]) + 0.0
     quat = matrix_to_quat(pose[:3, :3]) + 0.0
-    outside = _outside_limits(arm, q, args.deg)
+    outside = {} if arm.multi_dof_joints else _outside_limits(arm, q, args.deg)
     lines = [
         f"frame {frame!r} of arm {arm.name!r}",
         f"position [m]      x {fmt(pose[0, 3], 6)}  y {fmt(pose[1, 3], 6)}  z {fmt(pose[2, 3], 6)}",
@@ -208,6 +208,8 @@ def cmd_fk(args: argparse.Namespace) -> int:
         "matrix:",
     ]
     lines += ["  " + "  ".join(fmt(v, 6).rjust(10) for v in row) for row in pose]
+    if arm.multi_dof_joints:  # the collision checker steps 1-DOF joints only
+        return _fk_multi(args, arm, q, frame, pose, rpy, quat, lines)
     # without a collision matrix only the scene: sampling one would load the compiler
     clearance = scene_clearance(arm, q, scene, sample=False)
     links = self_checked(arm)
@@ -221,6 +223,26 @@ def cmd_fk(args: argparse.Namespace) -> int:
                                     "lower": float(arm.lower[arm.joint_index(n)]),
                                     "upper": float(arm.upper[arm.joint_index(n)])}
                                    for n in outside]}, "\n".join(lines))
+    return 0
+
+
+def _fk_multi(args: argparse.Namespace, arm: Arm, q: np.ndarray, frame: str, pose: np.ndarray,
+              rpy: np.ndarray, quat: np.ndarray, lines: list[str]) -> int:
+    """The rest of ``fk`` for an arm with universal or ball joints: limits, no clearance."""
+    from armctl.errors import JointLimitError
+
+    outside: list[dict[str, Any]] = []
+    try:
+        arm.check_limits(q)
+    except JointLimitError as exc:
+        outside.append({"joint": exc.joint, "value": exc.value, "lower": exc.lower,
+                        "upper": exc.upper})
+        lines.append("note: " + str(exc).split("; nothing was sent")[0])
+    lines.append("clearance: not checked (the collision checker supports 1-DOF joints only; "
+                 f"this arm has {', '.join(arm.multi_dof_joints)})")
+    emit(args, {"frame": frame, "q": q, "position": pose[:3, 3], "rpy": rpy, "quaternion": quat,
+                "matrix": pose, "within_limits": not outside, "clearance": None,
+                "link_pairs_checked": False, "outside_limits": outside}, "\n".join(lines))
     return 0
 
 

@@ -204,7 +204,9 @@ def cmd_render(args: argparse.Namespace) -> int:
             raise InputError(f"--{name} must be positive, got {value}")
     if args.keyframes or args.path:
         return _render_motion(args, arm, q, view, camera, target, scene)
-    drawing = None if args.no_scene else scene_drawing(arm, q, scene)
+    # the collision checker steps 1-DOF joints only: an arm with ball or universal joints is
+    # drawn without its scene (said below)
+    drawing = None if args.no_scene or arm.multi_dof_joints else scene_drawing(arm, q, scene)
     pic = render_pose(arm, q, args.output, view=view, camera=camera, frames=frames_arg(args),
                       target=target, size=args.size or 5.0, dpi=args.dpi or 110.0,
                       scene=drawing, title=pose_title(arm, q, args.deg))  # Q's unit
@@ -215,6 +217,9 @@ def cmd_render(args: argparse.Namespace) -> int:
                      + (" (drawn red)" if drawing.in_contact else ""))
     if pic.target_distance is not None:
         lines.append(f"distance from the tool to the target: {fmt(pic.target_distance)} m")
+    if arm.multi_dof_joints and not args.no_scene:
+        lines.append("note: no scene or clearance drawn: the collision checker supports 1-DOF "
+                     f"joints only (this arm has {', '.join(arm.multi_dof_joints)})")
     inside = arm.within_limits(q)
     if not inside:
         lines.append("note: these joint values are outside the joint limits")

@@ -111,6 +111,7 @@ class CollisionModel:
     """
 
     def __init__(self, model: KinematicModel, scene: SceneSpec, allowed: CollisionSpec):
+        model.require_one_dof("the collision checker")
         self.model = model
         self.scene = scene
         self.allowed = allowed
@@ -214,7 +215,7 @@ class CollisionModel:
         npairs = len(self._pairs)
         alw0 = misc + 1
         f = np.zeros((alw0 + max(1, -(-npairs // width)), width))
-        f[:n, :16] = tree.joints
+        f[:n, :16] = tree.joints[:, :16]  # the 1-DOF columns (the collision kernels step those)
         for c, row in enumerate(cap_rows):
             f[cap0 + c, :7] = row
         f[lev0:lev0 + kcap, :n] = lever

@@ -22,6 +22,7 @@ from armctl.config.schema import (
     Limits,
     LinkSpec,
     Origin,
+    PoseValue,
     unit_axis,
 )
 from armctl.config.source import Document, Section, load_yaml
@@ -35,7 +36,7 @@ _TOP_OPTIONAL = (
     "armctl", "description", "source", "dh_convention", "links", "frames", "tool",
     "end_effectors", "poses", "bus", "motion", "scene", "collision", "role",
 )
-_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "universal", "spherical")
+_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "universal", "ball", "spherical")
 _DEFAULT_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
@@ -76,7 +77,7 @@ def parse_arm(doc: Document) -> ArmSpec:
     if not joints:
         raise top.error("the arm has no joints", "joints", fix="list at least one joint")
     frame_secs = top.list_of("frames")
-    check_arm_size(len(joints), 0, top.where("joints"))  # multi-DOF joints count per axis
+    check_arm_size(len(joints), 0, top.where("joints"))
     check_arm_size(0, len(frame_secs), top.where("frames"))
     links = [_parse_link(sec.mapping(), doc.file) for sec in top.list_of("links")]
     frames = [_parse_frame(sec.mapping()) for sec in frame_secs]
@@ -104,7 +105,15 @@ def parse_arm(doc: Document) -> ArmSpec:
 
         bus = parse_bus(top.child("bus").mapping())
         actuated_names = {j.name for j in actuated}
+        multi = {j.name: j.type.value for j in actuated if j.type.nq != 1}
         for servo in bus.servos:
+            if servo.joint in multi:
+                raise top.error(
+                    f"servo {servo.id} drives joint {servo.joint!r}, a {multi[servo.joint]} "
+                    "joint: a servo turns one axis, so it cannot drive a multi-DOF joint",
+                    "bus", "servos", servo.joint,
+                    fix="drive 1-DOF joints with servos (write a powered wrist as revolute "
+                    "joints), or remove this servo")
             if servo.joint not in actuated_names:
                 raise top.error(
                     f"servo for unknown or fixed joint {servo.joint!r}", "bus", "servos",
@@ -226,11 +235,13 @@ def _parse_joint(sec: Section, dh: str) -> list[JointSpec]:
     role = sec.choice("role", JointRole, [r.value for r in JointRole], JointRole.ARM)
     origin, post = _joint_origin(sec, dh)
     where = sec.where()
-    if kind in ("universal", "spherical"):
+    if kind in ("universal", "ball", "spherical"):
         if post is not None:
             raise sec.error("DH parameters describe 1-DOF joints only", "dh",
-                            fix="use 'origin' for a universal or spherical joint")
-        return _expand_multi(sec, name, kind, parent, child, origin, role)
+                            fix=f"use 'origin' for a {kind} joint")
+        if kind == "universal":
+            return [_parse_universal(sec, name, parent, child, origin, role)]
+        return [_parse_ball(sec, name, kind, parent, child, origin, role)]
     jtype = JointType(kind)
     if sec.has("axes"):
         raise sec.error(f"'axes' is for universal and spherical joints; a {kind} joint has "
@@ -252,30 +263,87 @@ def _parse_joint(sec: Section, dh: str) -> list[JointSpec]:
     ]
 
 
-def _expand_multi(sec: Section, name: str, kind: str, parent: str, child: str, origin: Origin,
-                  role: JointRole) -> list[JointSpec]:
-    n = 2 if kind == "universal" else 3
+_BALL_LIMITS_FORM = ("limits: {swing: 60 deg, twist: {lower: -90 deg, upper: 90 deg}, "
+                     "velocity: ...} (swing: the largest angle of the twist axis from its rest "
+                     "direction; twist: the turn about that axis)")
+
+
+def _parse_universal(sec: Section, name: str, parent: str, child: str, origin: Origin,
+                     role: JointRole) -> JointSpec:
+    """A universal joint: one joint of two coordinates, about ``axes[0]``, then ``axes[1]``."""
     if sec.has("axis"):
-        raise sec.error(f"a {kind} joint takes 'axes' (a list of {n}), not 'axis'", "axis")
+        raise sec.error("a universal joint takes 'axes' (a list of 2), not 'axis'", "axis",
+                        fix="write 'axes: [[1, 0, 0], [0, 1, 0]]'")
     if sec.has("axes"):
         axes_secs = sec.list_of("axes", None)
-        if len(axes_secs) != n:
-            raise sec.error(f"a {kind} joint needs {n} axes, found {len(axes_secs)}", "axes")
-        axes = [_axis(a) for a in axes_secs]
+        if len(axes_secs) != 2:
+            raise sec.error(f"a universal joint needs 2 axes, found {len(axes_secs)}", "axes")
+        axes = (_axis(axes_secs[0]), _axis(axes_secs[1]))
     else:
-        axes = list(_DEFAULT_AXES[:n])
+        axes = (_DEFAULT_AXES[0], _DEFAULT_AXES[1])
+    if abs(float(np.dot(axes[0], axes[1]))) > 1.0 - 1e-9:
+        raise sec.error("the two axes of a universal joint are parallel", "axes",
+                        fix="give two different directions, such as [1, 0, 0] and [0, 1, 0]")
+    if not sec.has("limits") or not isinstance(sec.value["limits"], list):
+        raise sec.error("a universal joint needs a list of 2 limits, one per axis", "limits",
+                        fix="write 'limits: [{lower: ..., upper: ...}, {lower: ..., upper: ...}]'")
     lims = sec.list_of("limits", None)
-    if len(lims) != n:
-        raise sec.error(f"a {kind} joint needs a list of {n} limits, one per axis", "limits",
-                        fix="write 'limits: [{lower: ..., upper: ...}, ...]'")
-    limits = [_parse_limits(lim.mapping(), JointType.REVOLUTE) for lim in lims]
-    out = []
-    links = [parent, *(f"{name}__{i}" for i in range(1, n)), child]
-    for i in range(n):
-        out.append(JointSpec(
-            f"{name}_{i + 1}", JointType.REVOLUTE, links[i], links[i + 1],
-            origin if i == 0 else Origin(), axes[i], limits[i], role, sec.where()))
-    return out
+    if len(lims) != 2:
+        raise sec.error(f"a universal joint needs a list of 2 limits, found {len(lims)}",
+                        "limits",
+                        fix="write 'limits: [{lower: ..., upper: ...}, {lower: ..., upper: ...}]'")
+    limits = tuple(_parse_limits(lim.mapping(), JointType.REVOLUTE) for lim in lims)
+    return JointSpec(name, JointType.UNIVERSAL, parent, child, origin, axes[0], limits[0], role,
+                     sec.where(), axes=axes, axis_limits=limits)
+
+
+def _parse_ball(sec: Section, name: str, kind: str, parent: str, child: str, origin: Origin,
+                role: JointRole) -> JointSpec:
+    """A ball joint (``spherical`` is the same type): a unit quaternion, cone and twist limits."""
+    if sec.has("axes"):
+        raise sec.error(f"a {kind} joint is one 3-DOF joint and takes no 'axes'", "axes",
+                        fix="remove 'axes'; 'axis' (default [0, 0, 1]) sets its twist axis, "
+                        "the centre of its swing cone")
+    axis = _axis(sec.child("axis")) if sec.has("axis") else (0.0, 0.0, 1.0)
+    if not sec.has("limits"):
+        return JointSpec(name, JointType.BALL, parent, child, origin, axis, Limits(), role,
+                         sec.where())
+    if isinstance(sec.value["limits"], list):
+        raise sec.error(f"a {kind} joint's limits are a swing cone and a twist range, not a "
+                        "list per axis", "limits", fix="write " + _BALL_LIMITS_FORM)
+    lim = sec.child("limits").mapping()
+    lim.check_keys([], ["swing", "twist", "velocity", "acceleration", "jerk", "effort"])
+    if lim.has("lower") or lim.has("upper"):  # pragma: no cover - check_keys refuses them
+        raise lim.error("use swing and twist", fix="write " + _BALL_LIMITS_FORM)
+    swing = math.pi
+    if lim.has("swing"):
+        swing = lim.number("swing", angle=True, positive=True)
+        if swing > math.pi + 1e-12:
+            raise lim.error(f"swing {swing:.6g} rad is more than pi (180 deg)", "swing",
+                            fix="give the largest angle of the twist axis from its rest "
+                            "direction, at most 180 deg (180 deg: no cone limit)")
+        swing = min(swing, math.pi)
+    lower, upper = -math.inf, math.inf
+    if lim.has("twist"):
+        tw = lim.child("twist").mapping()
+        tw.check_keys(["lower", "upper"])
+        lower, upper = tw.number("lower", angle=True), tw.number("upper", angle=True)
+        for key, v in (("lower", lower), ("upper", upper)):
+            if abs(v) > math.pi + 1e-12:
+                raise tw.error(f"twist {key} {v:.6g} rad is outside [-pi, pi]", key,
+                               fix="give twist limits within -180 deg .. 180 deg")
+        if lower > upper:
+            raise tw.error(f"lower twist {lower:.6g} is greater than upper twist {upper:.6g}",
+                           "lower", fix="swap the two values")
+        lower, upper = max(lower, -math.pi), min(upper, math.pi)
+
+    def opt(key: str) -> float | None:
+        return lim.number(key, angle=True, positive=True) if lim.has(key) else None
+
+    limits = Limits(lower, upper, opt("velocity"), opt("acceleration"), opt("jerk"),
+                    opt("effort"))
+    return JointSpec(name, JointType.BALL, parent, child, origin, axis, limits, role,
+                     sec.where(), swing=swing)
 
 
 def _parse_frame(sec: Section) -> FrameSpec:
@@ -317,25 +385,101 @@ def _end_effectors(top: Section, frame_names: list[str], tool: str) -> tuple[str
     return tuple(out) if tool in out else (tool, *out)
 
 
-def _parse_poses(top: Section, actuated: list[JointSpec]) -> dict[str, dict[str, float]]:
+def _parse_poses(top: Section, actuated: list[JointSpec]) -> dict[str, dict[str, PoseValue]]:
     names = [j.name for j in actuated]
-    out: dict[str, dict[str, float]] = {}
+    nq = sum(j.type.nq for j in actuated)
+    out: dict[str, dict[str, PoseValue]] = {}
     for pose_name, sec in top.child("poses").items():
-        values: dict[str, float] = {}
-        if isinstance(sec.value, list):
-            if len(sec.value) != len(names):
-                raise sec.error(f"pose {pose_name!r} has {len(sec.value)} values but the arm has "
-                                f"{len(names)} joints ({', '.join(names)})")
-            for i, j in enumerate(actuated):
-                values[j.name] = sec._as_number(sec.value[i], i, angle=True)
+        values: dict[str, PoseValue] = {}
+        if isinstance(sec.value, list):  # the flattened joint vector q, in joint order
+            if len(sec.value) != nq:
+                raise sec.error(f"pose {pose_name!r} has {len(sec.value)} values but the arm's "
+                                f"joint vector has {nq} ({_q_layout(actuated)})")
+            k = 0
+            for j in actuated:
+                if j.type.nq == 1:
+                    values[j.name] = sec._as_number(sec.value[k], k, angle=True)
+                elif j.type is JointType.UNIVERSAL:
+                    values[j.name] = tuple(sec._as_number(sec.value[k + i], k + i, angle=True)
+                                           for i in range(2))
+                else:
+                    quat = [sec._as_number(sec.value[k + i], k + i) for i in range(4)]
+                    values[j.name] = _unit_quat(sec, quat, pose_name, j.name)
+                k += j.type.nq
         else:
             sec.mapping().check_keys(names)
             for j in actuated:
-                values[j.name] = sec.number(j.name, angle=True)
+                if j.type.nq == 1:
+                    values[j.name] = sec.number(j.name, angle=True)
+                elif j.type is JointType.UNIVERSAL:
+                    values[j.name] = sec.child(j.name).as_vector(2, angle=True)
+                else:
+                    values[j.name] = _ball_value(sec.child(j.name), pose_name, j.name)
         for j in actuated:
             v = values[j.name]
-            if not j.limits.lower - 1e-12 <= v <= j.limits.upper + 1e-12:
+            if isinstance(v, tuple):
+                _check_multi_pose(sec, pose_name, j, v)
+            elif not j.limits.lower - 1e-12 <= v <= j.limits.upper + 1e-12:
                 raise sec.error(f"pose {pose_name!r}: joint {j.name!r} value {v:.6g} is outside "
                                 f"its limits [{j.limits.lower:.6g}, {j.limits.upper:.6g}]")
         out[pose_name] = values
     return out
+
+
+def _q_layout(actuated: list[JointSpec]) -> str:
+    parts = []
+    for j in actuated:
+        if j.type is JointType.BALL:
+            parts.append(f"{j.name}: 4 (quaternion w, x, y, z)")
+        elif j.type is JointType.UNIVERSAL:
+            parts.append(f"{j.name}: 2")
+        else:
+            parts.append(j.name)
+    return ", ".join(parts)
+
+
+def _unit_quat(sec: Section, quat: list[float], pose: str, joint: str) -> tuple[float, ...]:
+    norm = math.sqrt(sum(x * x for x in quat))
+    if abs(norm - 1.0) > 1e-6:
+        raise sec.error(f"pose {pose!r}: ball joint {joint!r} quaternion {quat} has norm "
+                        f"{norm:.6g}, not 1", fix="give a unit quaternion [w, x, y, z], or "
+                        "'{rpy: [roll, pitch, yaw]}' or '{rotvec: [x, y, z]}'")
+    return tuple(x / norm for x in quat)
+
+
+def _ball_value(sec: Section, pose: str, joint: str) -> tuple[float, ...]:
+    """A ball joint's pose value: ``[w, x, y, z]``, ``{rpy: [...]}`` or ``{rotvec: [...]}``."""
+    from armctl.spatial import matrix_to_quat, rotvec_to_matrix
+
+    if isinstance(sec.value, dict):
+        sec.check_keys([], ["rpy", "rotvec"])
+        if sec.has("rpy") == sec.has("rotvec"):
+            raise sec.error(f"pose {pose!r}: give ball joint {joint!r} either 'rpy' or 'rotvec'",
+                            fix="write '{rpy: [roll, pitch, yaw]}' or '{rotvec: [x, y, z]}'")
+        if sec.has("rpy"):
+            from armctl.spatial import rpy_to_matrix
+
+            rot = rpy_to_matrix(sec.vector("rpy", 3, angle=True))
+        else:
+            rot = rotvec_to_matrix(sec.vector("rotvec", 3))
+        q = matrix_to_quat(rot)
+        return tuple(float(x) for x in (q if q[0] >= 0 else -q))
+    return _unit_quat(sec, list(sec.as_vector(4)), pose, joint)
+
+
+def _check_multi_pose(sec: Section, pose: str, j: JointSpec, v: tuple[float, ...]) -> None:
+    if j.type is JointType.UNIVERSAL:
+        for i, (x, lim) in enumerate(zip(v, j.axis_limits, strict=True)):
+            if not lim.lower - 1e-12 <= x <= lim.upper + 1e-12:
+                raise sec.error(f"pose {pose!r}: joint {j.name!r} angle {i + 1} {x:.6g} is "
+                                f"outside its limits [{lim.lower:.6g}, {lim.upper:.6g}]")
+        return
+    from armctl.spatial import swing_twist
+
+    swing, twist = swing_twist(v, j.axis)
+    if swing > j.swing + 1e-9:
+        raise sec.error(f"pose {pose!r}: ball joint {j.name!r} swings {swing:.6g} rad, more "
+                        f"than its limit {j.swing:.6g} rad")
+    if not j.limits.lower - 1e-9 <= twist <= j.limits.upper + 1e-9:
+        raise sec.error(f"pose {pose!r}: ball joint {j.name!r} twist {twist:.6g} rad is outside "
+                        f"its limits [{j.limits.lower:.6g}, {j.limits.upper:.6g}]")

@@ -2,8 +2,8 @@
 
 This is what an arm YAML file or a URDF becomes after validation (see ``docs/config.md``). It is
 pure data: the compiled kinematic tree that computes poses lives in :mod:`armctl.kinematics`.
-Multi-DOF joints and Denavit-Hartenberg parameters of the YAML format are already expanded here
-into 1-DOF joints with an origin and an axis.
+Denavit-Hartenberg parameters of the YAML format are already turned into joint origins here;
+universal (2-DOF) and ball (3-DOF) joints are joints of their own (:class:`JointType`).
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ __all__ = [
     "LinkSpec",
     "Mesh",
     "Origin",
+    "PoseValue",
     "Sphere",
     "unit_axis",
 ]
@@ -68,17 +69,43 @@ def unit_axis(v: tuple[float, ...]) -> tuple[float, float, float] | None:
 
 
 class JointType(Enum):
-    """Kinds of 1-DOF joints (multi-DOF joints are expanded into revolute ones)."""
+    """Kinds of joints: 1-DOF, rotary 2-DOF (universal) and 3-DOF (ball), and fixed.
+
+    1-DOF joints are revolute, continuous and prismatic.
+    The rotary joints of 1-3 DOF are those of the lecture (L. Kavan, *Metody skeletální
+    animace*, 2002). A universal joint turns about its first axis, then about its second axis in
+    the frame moved by the first; a ball joint turns freely, its configuration a unit quaternion.
+    """
 
     REVOLUTE = "revolute"
     CONTINUOUS = "continuous"
     PRISMATIC = "prismatic"
     FIXED = "fixed"
+    UNIVERSAL = "universal"
+    BALL = "ball"
 
     @property
     def actuated(self) -> bool:
         """Whether the joint has a degree of freedom."""
         return self is not JointType.FIXED
+
+    @property
+    def nq(self) -> int:
+        """Entries of the joint in the configuration vector ``q`` (a ball joint: a quaternion)."""
+        return _NQ.get(self.value, 1)
+
+    @property
+    def nv(self) -> int:
+        """Entries of the joint in a velocity or tangent vector (its degrees of freedom)."""
+        return _NV.get(self.value, 1)
+
+
+#: A joint's value in a named pose: a number (1-DOF joints), two angles [rad] (universal), or
+#: a unit quaternion (w, x, y, z) (ball).
+PoseValue = float | tuple[float, ...]
+
+_NQ = {"fixed": 0, "universal": 2, "ball": 4}
+_NV = {"fixed": 0, "universal": 2, "ball": 3}
 
 
 class JointRole(Enum):
@@ -122,7 +149,7 @@ class Limits:
 
 @dataclass(frozen=True)
 class JointSpec:
-    """One 1-DOF (or fixed) joint between a parent and a child link.
+    """One joint (1-DOF, universal, ball or fixed) between a parent and a child link.
 
     Attributes:
         name: Unique joint name.
@@ -130,10 +157,18 @@ class JointSpec:
         parent: Parent link name.
         child: Child link name.
         origin: Placement of the joint frame in the parent link frame.
-        axis: Unit axis in the joint frame (rotation axis, or direction of travel).
-        limits: Position, velocity, acceleration and jerk limits.
+        axis: Unit axis in the joint frame (rotation axis, or direction of travel); for a ball
+            joint the twist axis, also the centre of its swing cone.
+        limits: Position, velocity, acceleration and jerk limits; for a ball joint ``lower`` and
+            ``upper`` bound the twist about ``axis`` [rad]; for a universal joint those of the
+            first axis (see ``axis_limits``).
         role: Arm joint or gripper joint.
         where: Where the joint was defined, for error messages.
+        axes: A universal joint's two unit axes (the second in the frame moved by the first);
+            empty for other joints.
+        axis_limits: A universal joint's limits per axis; empty for other joints.
+        swing: A ball joint's largest angle [rad] of its twist axis from its rest direction,
+            in (0, pi]; pi for unlimited.
     """
 
     name: str
@@ -145,6 +180,9 @@ class JointSpec:
     limits: Limits = Limits()
     role: JointRole = JointRole.ARM
     where: KeyPath = field(default=KeyPath(), compare=False)
+    axes: tuple[tuple[float, float, float], ...] = ()
+    axis_limits: tuple[Limits, ...] = ()
+    swing: float = math.pi
 
 
 @dataclass(frozen=True)
@@ -184,7 +222,7 @@ class LinkSpec:
 
 @dataclass(frozen=True)
 class ArmSpec:
-    """A validated arm description: a tree of links joined by 1-DOF joints.
+    """A validated arm description: a tree of links joined by joints (1-DOF, universal, ball).
 
     Attributes:
         name: Arm name.
@@ -214,7 +252,7 @@ class ArmSpec:
     frames: tuple[FrameSpec, ...] = ()
     tool: str = ""
     end_effectors: tuple[str, ...] = ()
-    poses: dict[str, dict[str, float]] = field(default_factory=dict)
+    poses: dict[str, dict[str, PoseValue]] = field(default_factory=dict)
     description: str = ""
     source: str = ""
     bus: BusSpec | None = None

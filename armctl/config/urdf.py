@@ -251,6 +251,11 @@ def _joint(el: ET.Element, i: int, file: Path | None, notes: list[str]) -> Joint
     if kind in ("floating", "planar"):
         raise ConfigError(f"joint {name!r} is {kind}; armctl models fixed-base arms", where,
                           "remove the joint, or make it fixed")
+    if kind in ("ball", "spherical", "universal"):
+        raise ConfigError(f"joint {name!r} is {kind}, which URDF does not define (URDF joints "
+                          "are revolute, continuous, prismatic, fixed, floating, planar)", where,
+                          f"write the arm in armctl YAML, where 'type: {kind}' is a joint of "
+                          "its own (docs/config.md)")
     if kind not in valid:
         raise UnknownNameError("joint type", kind, valid, f"joint {name!r}")
     parent_el, child_el = el.find("parent"), el.find("child")

@@ -27,6 +27,7 @@ from armctl.config.schema import (
     Geometry,
     JointSpec,
     JointType,
+    Limits,
     LinkSpec,
     Mesh,
     Origin,
@@ -180,20 +181,43 @@ def _joint(j: JointSpec) -> list[str]:
     origin = _origin(j.origin)
     if origin:
         lines.append(f"    origin: {origin}")
+    if j.type is JointType.UNIVERSAL:
+        lines.append(f"    axes: [{_vec(j.axes[0])}, {_vec(j.axes[1])}]")
+        lines.append("    limits: [" + ", ".join(
+            "{" + ", ".join(_limit_parts(lim, True)) + "}" for lim in j.axis_limits) + "]")
+        if j.role.value != "arm":
+            lines.append(f"    role: {j.role.value}")
+        return lines
     lines.append(f"    axis: {_vec(j.axis)}")
     lim = j.limits
     parts = []
-    if j.type in (JointType.REVOLUTE, JointType.PRISMATIC):
-        parts += [f"lower: {_num(lim.lower)}", f"upper: {_num(lim.upper)}"]
-    for key in ("velocity", "acceleration", "jerk", "effort"):
-        value = getattr(lim, key)
-        if value is not None:
-            parts.append(f"{key}: {_num(value)}")
+    if j.type is JointType.BALL:
+        if j.swing < math.pi:
+            parts.append(f"swing: {_num(j.swing)}")
+        if math.isfinite(lim.lower):
+            parts.append(f"twist: {{lower: {_num(lim.lower)}, upper: {_num(lim.upper)}}}")
+        parts += _limit_parts(lim, False)
+        if parts:
+            lines.append("    limits: {" + ", ".join(parts) + "}")
+        if j.role.value != "arm":
+            lines.append(f"    role: {j.role.value}")
+        return lines
+    parts = _limit_parts(lim, j.type in (JointType.REVOLUTE, JointType.PRISMATIC))
     if parts:
         lines.append("    limits: {" + ", ".join(parts) + "}")
     if j.role.value != "arm":
         lines.append(f"    role: {j.role.value}")
     return lines
+
+
+def _limit_parts(lim: Limits, position: bool) -> list[str]:
+    """``lower``/``upper`` (when ``position``) and the rate limits that are known."""
+    parts = [f"lower: {_num(lim.lower)}", f"upper: {_num(lim.upper)}"] if position else []
+    for key in ("velocity", "acceleration", "jerk", "effort"):
+        value = getattr(lim, key)
+        if value is not None:
+            parts.append(f"{key}: {_num(value)}")
+    return parts
 
 
 def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "") -> str:
@@ -242,8 +266,11 @@ def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "")
     if spec.poses:
         lines.append("poses:")
         for name, values in spec.poses.items():
-            row = tuple(values[j.name] for j in spec.actuated_joints)
-            lines.append(f"  {_text(name)}: {_vec(row)}")
+            row: list[float] = []
+            for j in spec.actuated_joints:
+                value = values[j.name]
+                row += list(value) if isinstance(value, tuple) else [value]
+            lines.append(f"  {_text(name)}: {_vec(tuple(row))}")
     if spec.scene is not None:
         lines += scene_section(spec.scene, rel)
     if spec.collision is not None:

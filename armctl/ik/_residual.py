@@ -213,7 +213,7 @@ def _residual(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, 
 
     ``rw`` [m/rad] scales the orientation rows against the position rows.
     """
-    n = q.shape[0]
+    n = jg.shape[1]  # the tangent length (== len(q) for 1-DOF joints)
     r = 0
     for g in range(gf.shape[0]):
         if with_jac:

@@ -223,6 +223,7 @@ def solve_batch(
     Raises:
         InputError: For goal sets of different structure, an unknown solver or bad shapes.
     """
+    model.require_one_dof("batch inverse kinematics")
     started = time.perf_counter()
     options = options or IKOptions()
     if not solver_info(solver).capabilities.batch:

@@ -256,7 +256,11 @@ def solve(
     Raises:
         UnsupportedGoalError: For goals or constraints the solver cannot take (naming those that
             can).
+        InputError: For an arm with universal or ball joints and a solver, constraints or
+            options that step 1-DOF joints only (:mod:`armctl.ik.tangent` runs the others).
     """
+    if model.multi_dof_joints:
+        return _solve_multi_dof(model, goal, q0, solver, options, constraints, avoid)
     if avoid is None and not constraints and isinstance(goal, Goal):
         short = _SHORT[solver]
         if short is not None:  # one goal, a numerical method: the same checks, done once
@@ -280,6 +284,30 @@ def solve(
 
 
 _DEFAULT_OPTIONS = IKOptions()  # frozen: one instance serves every call without options
+
+
+def _solve_multi_dof(model: KinematicModel, goal: GoalLike, q0: npt.ArrayLike | None,
+                     solver: str, options: IKOptions | None, constraints: Sequence[Any],
+                     avoid: CollisionModel | None) -> IKResult:
+    """IK on an arm with universal or ball joints: the tangent-space methods, or a refusal."""
+    from armctl.ik.tangent import TANGENT_METHODS, solve_tangent
+
+    opts = options or _DEFAULT_OPTIONS
+    if solver not in TANGENT_METHODS or constraints or avoid is not None \
+            or opts.avoid is not None or opts.nullspace is not None:
+        what = (f"the solver {solver!r}" if solver not in TANGENT_METHODS else
+                "constraints, null-space criteria and collision avoidance")
+        raise InputError(
+            f"arm {model.name!r} has the multi-DOF joint(s) "
+            f"{', '.join(repr(n) for n in model.multi_dof_joints)}: {what} supports 1-DOF "
+            f"joints only. Use one of {', '.join(sorted(TANGENT_METHODS))} without "
+            "constraints, null-space criteria or a collision checker.")
+    goals = as_goals(goal)
+    for g in goals:
+        model.frame_index(g.frame)
+    check_request(solver, goals, constraints)
+    start = model.neutral() if q0 is None else model.clip(q0)
+    return solve_tangent(model, goals, start, opts, solver)
 
 
 def _short_path(solver: str) -> Any:

@@ -7,10 +7,11 @@ The tree is packed into flat arrays by :func:`armctl.kinematics.compiled_tree.co
 (:class:`~armctl.kinematics.compiled_tree.CompiledTree` documents each array and names its
 columns); the kernels take them as plain arguments:
 
-* ``jd`` ``(n, 16)``: :attr:`CompiledTree.joints`: per actuated joint, rows 0-2 of the constant
+* ``jd`` ``(n, 22)``: :attr:`CompiledTree.joints`: per actuated joint, rows 0-2 of the constant
   transform from the parent joint's frame (or the base) to this joint's frame before its motion
-  (12 numbers, row-major 3x4), then the unit axis (3) and 1.0 for prismatic / 0.0 for revolute
-  joints.
+  (12 numbers, row-major 3x4), then the unit axis (3), 1.0 for prismatic / 0.0 for other
+  joints, the kind (0 1-DOF, 2 universal, 3 ball), a universal joint's second axis (3), and the
+  joint's first index into ``q`` and into tangent vectors (Jacobian columns).
 * ``parent`` ``(n,)``: :attr:`CompiledTree.parent`: the index of the parent actuated joint, -1
   for the base.
 * ``fd`` ``(m, 12)``: :attr:`CompiledTree.frames`: per named frame, its constant 3x4 offset from
@@ -20,7 +21,13 @@ columns); the kernels take them as plain arguments:
   anchor, padded with -1.
 
 A joint's frame after its motion is ``T_parent @ pre @ M(q)`` where ``M`` is a rotation about the
-axis (revolute) or a translation along it (prismatic).
+axis (revolute) or a translation along it (prismatic), two rotations about the two axes
+(universal), or the rotation of a unit quaternion (ball). A 1-DOF joint is stepped by
+:func:`_step` alone, as fast as before multi-DOF joints existed; the others by
+:func:`_step_multi`. A ball joint's three Jacobian columns are ``[w_k x r; w_k]`` for the three
+axes ``w_k`` of its moved frame (its tangent is the angular velocity in that frame), a universal
+joint's two those of its two axes: the column form of the lecture (L. Kavan, *Metody
+skeletální animace*, 2002), singular nowhere.
 """
 
 from __future__ import annotations
@@ -85,6 +92,137 @@ def _step(t: np.ndarray, row: np.ndarray, qj: float) -> None:
     t[0, 3] = p0
     t[1, 3] = p1
     t[2, 3] = p2
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
+def _axis_rotation(x: float, y: float, z: float, angle: float) -> tuple[
+        float, float, float, float, float, float, float, float, float]:
+    """The rotation matrix (row-major, 9 numbers) by ``angle`` about the unit axis ``x, y, z``."""
+    c = math.cos(angle)
+    s = math.sin(angle)
+    v = 1.0 - c
+    return (c + x * x * v, x * y * v - z * s, x * z * v + y * s,
+            y * x * v + z * s, c + y * y * v, y * z * v - x * s,
+            z * x * v - y * s, z * y * v + x * s, c + z * z * v)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
+def _step_multi(t: np.ndarray, row: np.ndarray, q: np.ndarray) -> None:
+    """``t = t @ pre @ M`` in place for a universal or ball joint; ``q`` the whole vector."""
+    a00 = t[0, 0] * row[0] + t[0, 1] * row[4] + t[0, 2] * row[8]
+    a01 = t[0, 0] * row[1] + t[0, 1] * row[5] + t[0, 2] * row[9]
+    a02 = t[0, 0] * row[2] + t[0, 1] * row[6] + t[0, 2] * row[10]
+    a10 = t[1, 0] * row[0] + t[1, 1] * row[4] + t[1, 2] * row[8]
+    a11 = t[1, 0] * row[1] + t[1, 1] * row[5] + t[1, 2] * row[9]
+    a12 = t[1, 0] * row[2] + t[1, 1] * row[6] + t[1, 2] * row[10]
+    a20 = t[2, 0] * row[0] + t[2, 1] * row[4] + t[2, 2] * row[8]
+    a21 = t[2, 0] * row[1] + t[2, 1] * row[5] + t[2, 2] * row[9]
+    a22 = t[2, 0] * row[2] + t[2, 1] * row[6] + t[2, 2] * row[10]
+    p0 = t[0, 3] + t[0, 0] * row[3] + t[0, 1] * row[7] + t[0, 2] * row[11]
+    p1 = t[1, 3] + t[1, 0] * row[3] + t[1, 1] * row[7] + t[1, 2] * row[11]
+    p2 = t[2, 3] + t[2, 0] * row[3] + t[2, 1] * row[7] + t[2, 2] * row[11]
+    k = int(row[20])
+    if row[16] > 2.5:  # ball: the rotation of the quaternion q[k:k+4] (normalised here)
+        w, x, y, z = q[k], q[k + 1], q[k + 2], q[k + 3]
+        s = 2.0 / (w * w + x * x + y * y + z * z)
+        r00 = 1.0 - s * (y * y + z * z)
+        r01 = s * (x * y - z * w)
+        r02 = s * (x * z + y * w)
+        r10 = s * (x * y + z * w)
+        r11 = 1.0 - s * (x * x + z * z)
+        r12 = s * (y * z - x * w)
+        r20 = s * (x * z - y * w)
+        r21 = s * (y * z + x * w)
+        r22 = 1.0 - s * (x * x + y * y)
+    else:  # universal: about the first axis, then about the second in the moved frame
+        b00, b01, b02, b10, b11, b12, b20, b21, b22 = _axis_rotation(
+            row[12], row[13], row[14], q[k])
+        c00, c01, c02, c10, c11, c12, c20, c21, c22 = _axis_rotation(
+            row[17], row[18], row[19], q[k + 1])
+        r00 = b00 * c00 + b01 * c10 + b02 * c20
+        r01 = b00 * c01 + b01 * c11 + b02 * c21
+        r02 = b00 * c02 + b01 * c12 + b02 * c22
+        r10 = b10 * c00 + b11 * c10 + b12 * c20
+        r11 = b10 * c01 + b11 * c11 + b12 * c21
+        r12 = b10 * c02 + b11 * c12 + b12 * c22
+        r20 = b20 * c00 + b21 * c10 + b22 * c20
+        r21 = b20 * c01 + b21 * c11 + b22 * c21
+        r22 = b20 * c02 + b21 * c12 + b22 * c22
+    t[0, 0] = a00 * r00 + a01 * r10 + a02 * r20
+    t[0, 1] = a00 * r01 + a01 * r11 + a02 * r21
+    t[0, 2] = a00 * r02 + a01 * r12 + a02 * r22
+    t[1, 0] = a10 * r00 + a11 * r10 + a12 * r20
+    t[1, 1] = a10 * r01 + a11 * r11 + a12 * r21
+    t[1, 2] = a10 * r02 + a11 * r12 + a12 * r22
+    t[2, 0] = a20 * r00 + a21 * r10 + a22 * r20
+    t[2, 1] = a20 * r01 + a21 * r11 + a22 * r21
+    t[2, 2] = a20 * r02 + a21 * r12 + a22 * r22
+    t[0, 3] = p0
+    t[1, 3] = p1
+    t[2, 3] = p2
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
+def _step_any(t: np.ndarray, row: np.ndarray, q: np.ndarray) -> None:
+    """``t = t @ pre @ M`` for any joint kind, reading the joint's entries of ``q``."""
+    if row[16] == 0.0:
+        _step(t, row, q[int(row[20])])
+    else:
+        _step_multi(t, row, q)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
+def _nv(jd: np.ndarray) -> int:
+    """The length of a tangent vector: the last joint's first column plus its DOF."""
+    n = jd.shape[0]
+    if n == 0:
+        return 0
+    kind = jd[n - 1, 16]
+    return int(jd[n - 1, 21]) + (1 if kind == 0.0 else (2 if kind < 2.5 else 3))
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
+def _record_axes(t: np.ndarray, row: np.ndarray, q: np.ndarray, w: np.ndarray, o: np.ndarray,
+                 pris: np.ndarray, cols: np.ndarray, c: int) -> int:
+    """Store the world axes, origin, kind and column of the joint just stepped from slot ``c``.
+
+    Returns the next free slot: ``c`` plus the joint's DOF. ``t`` is the joint's frame after
+    its motion: a 1-DOF joint's axis is fixed by its own motion; a ball joint's axes are the
+    three columns of ``t``; a universal joint's second axis is ``t @ a2``, its first
+    ``t @ R(a2, -q2) @ a1`` (the first axis does not move with the first turn).
+    """
+    kind = row[16]
+    v = int(row[21])
+    if kind == 0.0:
+        _record_axis(t, row, w, o, c)
+        pris[c] = row[15]
+        cols[c] = v
+        return c + 1
+    dof = 3 if kind > 2.5 else 2
+    for i in range(dof):
+        o[c + i, 0] = t[0, 3]
+        o[c + i, 1] = t[1, 3]
+        o[c + i, 2] = t[2, 3]
+        pris[c + i] = 0.0
+        cols[c + i] = v + i
+    if dof == 3:
+        for i in range(3):
+            w[c + i, 0] = t[0, i]
+            w[c + i, 1] = t[1, i]
+            w[c + i, 2] = t[2, i]
+        return c + 3
+    x, y, z = row[17], row[18], row[19]
+    w[c + 1, 0] = t[0, 0] * x + t[0, 1] * y + t[0, 2] * z
+    w[c + 1, 1] = t[1, 0] * x + t[1, 1] * y + t[1, 2] * z
+    w[c + 1, 2] = t[2, 0] * x + t[2, 1] * y + t[2, 2] * z
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = _axis_rotation(x, y, z, -q[int(row[20]) + 1])
+    a0 = m00 * row[12] + m01 * row[13] + m02 * row[14]
+    a1 = m10 * row[12] + m11 * row[13] + m12 * row[14]
+    a2 = m20 * row[12] + m21 * row[13] + m22 * row[14]
+    w[c, 0] = t[0, 0] * a0 + t[0, 1] * a1 + t[0, 2] * a2
+    w[c, 1] = t[1, 0] * a0 + t[1, 1] * a1 + t[1, 2] * a2
+    w[c, 2] = t[2, 0] * a0 + t[2, 1] * a1 + t[2, 2] * a2
+    return c + 2
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -158,7 +296,7 @@ def fk_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f:
         j = path[k]
         if j < 0:
             break
-        _step(t, jd[j], q[j])
+        _step_any(t, jd[j], q)
     _apply_offset(t, fd[f], out)
 
 
@@ -173,33 +311,32 @@ def fk(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int)
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def fk_jacobian_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
                      pose: np.ndarray, jac: np.ndarray) -> None:
-    """Pose (4x4) and geometric Jacobian (6 x n, rows [linear; angular]) of frame ``f``."""
-    n = jd.shape[0]
+    """Pose (4x4) and geometric Jacobian (6 x nv, rows [linear; angular]) of frame ``f``."""
+    n = 3 * jd.shape[0]
     t = np.empty((3, 4))
     _identity34(t)
     path = paths[f]
     w = np.empty((n, 3))
     o = np.empty((n, 3))
     prismatic = np.empty(n)
+    cols = np.empty(n, dtype=np.int64)
     depth = 0
     for k in range(path.shape[0]):
         j = path[k]
         if j < 0:
             break
-        _step(t, jd[j], q[j])
-        _record_axis(t, jd[j], w, o, k)
-        prismatic[k] = jd[j, 15]
-        depth += 1
+        _step_any(t, jd[j], q)
+        depth = _record_axes(t, jd[j], q, w, o, prismatic, cols, depth)
     _apply_offset(t, fd[f], pose)
-    _fill_columns(pose, w, o, path, prismatic, depth, jac)
+    _fill_columns(pose, w, o, cols, prismatic, depth, jac)
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def jacobian(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
              f: int) -> np.ndarray:
-    """Geometric Jacobian ``(6, n)`` of frame ``f``."""
+    """Geometric Jacobian ``(6, nv)`` of frame ``f``."""
     pose = np.empty((4, 4))
-    jac = np.empty((6, jd.shape[0]))
+    jac = np.empty((6, _nv(jd)))
     fk_jacobian_into(q, jd, fd, paths, f, pose, jac)
     return jac
 
@@ -207,7 +344,7 @@ def jacobian(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def fk_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
              f: int) -> np.ndarray:
-    """Poses ``(N, 4, 4)`` of frame ``f`` for joint vectors ``qs`` ``(N, n)``."""
+    """Poses ``(N, 4, 4)`` of frame ``f`` for joint vectors ``qs`` ``(N, nq)``."""
     out = np.empty((qs.shape[0], 4, 4))
     for i in range(qs.shape[0]):
         fk_into(qs[i], jd, fd, paths, f, out[i])
@@ -217,8 +354,8 @@ def fk_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def jacobian_batch(qs: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
                    f: int) -> np.ndarray:
-    """Jacobians ``(N, 6, n)`` of frame ``f`` for joint vectors ``qs`` ``(N, n)``."""
-    out = np.empty((qs.shape[0], 6, jd.shape[0]))
+    """Jacobians ``(N, 6, nv)`` of frame ``f`` for joint vectors ``qs`` ``(N, nq)``."""
+    out = np.empty((qs.shape[0], 6, _nv(jd)))
     pose = np.empty((4, 4))
     for i in range(qs.shape[0]):
         fk_jacobian_into(qs[i], jd, fd, paths, f, pose, out[i])
@@ -238,7 +375,7 @@ def fk_all(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, anchor: np.ndarray
         for i in range(3):
             for k in range(4):
                 world[j, i, k] = src[i, k]
-        _step(world[j], jd[j], q[j])
+        _step_any(world[j], jd[j], q)
     out = np.empty((fd.shape[0], 4, 4))
     for f in range(fd.shape[0]):
         a = anchor[f]
@@ -258,7 +395,7 @@ def chain_fk(q: np.ndarray, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
     _identity34(t)
     k = idx.shape[0]
     for i in range(k):
-        _step(t, rows[i], q[idx[i]])
+        _step_any(t, rows[i], q)
     out = np.empty((4, 4))
     _apply_offset(t, rows[k], out)
     return out
@@ -271,20 +408,23 @@ def chain_fk_jacobian_into(q: np.ndarray, rows: np.ndarray, idx: np.ndarray, pos
     t = np.empty((3, 4))
     _identity34(t)
     k = idx.shape[0]
-    w = np.empty((k, 3))
-    o = np.empty((k, 3))
+    w = np.empty((3 * k, 3))
+    o = np.empty((3 * k, 3))
+    pris = np.empty(3 * k)
+    cols = np.empty(3 * k, dtype=np.int64)
+    c = 0
     for i in range(k):
-        _step(t, rows[i], q[idx[i]])
-        _record_axis(t, rows[i], w, o, i)
+        _step_any(t, rows[i], q)
+        c = _record_axes(t, rows[i], q, w, o, pris, cols, c)
     _apply_offset(t, rows[k], pose)
-    _fill_columns(pose, w, o, idx, rows[:, 15], k, jac)
+    _fill_columns(pose, w, o, cols, pris, c, jac)
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
-def chain_jacobian(q: np.ndarray, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """Geometric Jacobian ``(6, dof)`` of the frame described by ``rows``/``idx``."""
+def chain_jacobian(q: np.ndarray, rows: np.ndarray, idx: np.ndarray, nv: int) -> np.ndarray:
+    """Geometric Jacobian ``(6, nv)`` of the frame described by ``rows``/``idx``."""
     pose = np.empty((4, 4))
-    jac = np.empty((6, q.shape[0]))
+    jac = np.empty((6, nv))
     chain_fk_jacobian_into(q, rows, idx, pose, jac)
     return jac
 

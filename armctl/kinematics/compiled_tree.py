@@ -1,6 +1,6 @@
 """The compiled kinematic tree: the flat arrays the numba kernels read, with their layout named.
 
-An arm's tree of links and 1-DOF joints is compiled once, when its
+An arm's tree of links and joints (1-DOF, universal, ball) is compiled once, when its
 :class:`~armctl.kinematics.model.KinematicModel` is built, into a few read-only NumPy arrays.
 Fixed joints are folded into constant transforms, so only the actuated joints and the named
 frames (links and extra frames) remain. The compiled kernels (:mod:`armctl.kinematics._kernels`,
@@ -11,7 +11,9 @@ below, never with bare numbers.
 A joint's frame after its motion is ``T_parent @ origin @ M(q)``: ``T_parent`` the frame of its
 parent joint after that joint's motion (the identity for the base), ``origin`` the joint's
 constant placement, ``M`` a rotation by ``q`` [rad] about the joint axis (revolute, continuous)
-or a translation by ``q`` [m] along it (prismatic). A named frame's pose is its anchor joint's
+or a translation by ``q`` [m] along it (prismatic); for a universal joint a rotation about its
+first axis by ``q[k]`` then about its second axis by ``q[k + 1]``; for a ball joint the rotation
+of the unit quaternion ``q[k:k + 4]`` (w, x, y, z). A named frame's pose is its anchor joint's
 frame times the frame's constant offset.
 """
 
@@ -26,20 +28,36 @@ from armctl.config.schema import ArmSpec, JointType
 from armctl.typing import Array
 
 __all__ = [
-    "FRAME_COLUMNS", "FRAME_OFFSET", "JOINT_AXIS", "JOINT_COLUMNS", "JOINT_ORIGIN",
-    "JOINT_PRISMATIC", "TRANSLATION", "CompiledTree", "compile_tree",
+    "FRAME_COLUMNS", "FRAME_OFFSET", "JOINT_AXIS", "JOINT_AXIS2", "JOINT_COLUMNS", "JOINT_KIND",
+    "JOINT_ORIGIN", "JOINT_PRISMATIC", "JOINT_Q", "JOINT_V", "KIND_BALL", "KIND_ONE",
+    "KIND_UNIVERSAL", "TRANSLATION", "CompiledTree", "compile_tree",
 ]
 
 IndexArray = npt.NDArray[np.int64]
 
 #: Columns of a row of :attr:`CompiledTree.joints`.
-JOINT_COLUMNS = 16
+JOINT_COLUMNS = 22
 #: Rows 0-2 of the joint's constant placement ``origin`` (a 4x4 transform), row-major 3x4.
 JOINT_ORIGIN = slice(0, 12)
 #: The unit joint axis, in the joint's frame.
 JOINT_AXIS = slice(12, 15)
 #: 1.0 for a prismatic joint, 0.0 for a revolute or continuous one.
 JOINT_PRISMATIC = 15
+#: The kind of joint: :data:`KIND_ONE`, :data:`KIND_UNIVERSAL` or :data:`KIND_BALL`.
+JOINT_KIND = 16
+#: A universal joint's second unit axis, in the frame moved by the first (0 for others).
+JOINT_AXIS2 = slice(17, 20)
+#: The joint's first index in the configuration vector ``q`` (a whole number).
+JOINT_Q = 20
+#: The joint's first index in a velocity or tangent vector and Jacobian column (whole number).
+JOINT_V = 21
+
+#: :data:`JOINT_KIND` of a 1-DOF joint (revolute, continuous, prismatic).
+KIND_ONE = 0.0
+#: :data:`JOINT_KIND` of a universal joint (2 angles in ``q``, 2 tangent entries).
+KIND_UNIVERSAL = 2.0
+#: :data:`JOINT_KIND` of a ball joint (a unit quaternion in ``q``, 3 tangent entries).
+KIND_BALL = 3.0
 
 #: Columns of a row of :attr:`CompiledTree.frames`.
 FRAME_COLUMNS = 12
@@ -66,8 +84,10 @@ def _transform(block: np.ndarray) -> Array:
 class CompiledTree:
     """An arm's kinematic tree as the flat arrays the compiled kernels take.
 
-    ``n`` is the number of actuated joints (the model's ``dof``), ordered parents first as in
-    the joint vector ``q``; ``m`` is the number of named frames, links first and then the extra
+    ``n`` is the number of actuated joints, ordered parents first as in the joint vector ``q``
+    (``nq`` entries; a joint's first entry in column :data:`JOINT_Q`) and in tangent vectors and
+    Jacobian columns (``nv`` entries, the model's ``dof``; column :data:`JOINT_V`); ``m`` is
+    the number of named frames, links first and then the extra
     frames, as in :attr:`frame_names`. Every array is read-only and C-contiguous. Build one with
     :func:`compile_tree`; a model holds its own as ``model.tree``.
 
@@ -78,7 +98,9 @@ class CompiledTree:
             the constant placement of the joint in its parent joint's frame after that joint's
             motion (the base frame for a root joint), rotation unitless and translation in [m];
             :data:`JOINT_AXIS` (12-14), the unit axis in the joint's own frame;
-            :data:`JOINT_PRISMATIC` (15), 1.0 for prismatic, 0.0 for revolute joints.
+            :data:`JOINT_PRISMATIC` (15), 1.0 for prismatic, 0.0 for other joints;
+            :data:`JOINT_KIND` (16); :data:`JOINT_AXIS2` (17-19); :data:`JOINT_Q` (20),
+            :data:`JOINT_V` (21).
         parent: ``(n,)`` int64, the index of each joint's parent actuated joint, -1 for the
             base; a parent's index is lower than its children's.
         frames: ``(m, 12)`` float64, per frame: columns :data:`FRAME_OFFSET` (0-11), its
@@ -87,8 +109,11 @@ class CompiledTree:
             frame fixed to the base.
         paths: ``(m, max(n, 1))`` int64, per frame the joints from the base to its anchor
             (parents first), padded with -1.
-        lower: ``(n,)`` float64, lower position limits [rad]/[m] (-inf for continuous joints).
-        upper: ``(n,)`` float64, upper position limits [rad]/[m] (+inf for continuous joints).
+        lower: ``(nq,)`` float64, lower position limits per entry of ``q`` [rad]/[m] (-inf for
+            continuous joints and a ball joint's quaternion).
+        upper: ``(nq,)`` float64, upper position limits [rad]/[m] (+inf likewise).
+        nq: Length of the configuration vector ``q``.
+        nv: Length of a tangent vector (Jacobian columns).
         frame_reach: ``(m,)`` float64, per frame an upper bound [m] of its distance from the
             base origin over every configuration inside the limits (see :meth:`reach`).
     """
@@ -103,6 +128,8 @@ class CompiledTree:
     lower: Array
     upper: Array
     frame_reach: Array
+    nq: int = -1
+    nv: int = -1
 
     # ---- one joint or frame as matrices -------------------------------------------------------
     def joint_origin(self, joint: int) -> Array:
@@ -177,6 +204,9 @@ def compile_tree(spec: ArmSpec) -> CompiledTree:
     n = len(actuated)
     joints = np.zeros((n, JOINT_COLUMNS))
     parent = np.full(n, -1, dtype=np.int64)
+    lower_q: list[float] = []
+    upper_q: list[float] = []
+    nv = 0
     anchor_of: dict[str, tuple[int, np.ndarray]] = {spec.base: (-1, np.eye(4))}
     for j in spec.joints:  # parents first
         a, t = anchor_of[j.parent]
@@ -188,6 +218,22 @@ def compile_tree(spec: ArmSpec) -> CompiledTree:
         joints[i, JOINT_ORIGIN] = pre[:3, :4].reshape(12)
         joints[i, JOINT_AXIS] = j.axis
         joints[i, JOINT_PRISMATIC] = 1.0 if j.type is JointType.PRISMATIC else 0.0
+        joints[i, JOINT_Q] = len(lower_q)
+        joints[i, JOINT_V] = nv
+        nv += j.type.nv
+        if j.type is JointType.UNIVERSAL:
+            joints[i, JOINT_KIND] = KIND_UNIVERSAL
+            joints[i, JOINT_AXIS] = j.axes[0]
+            joints[i, JOINT_AXIS2] = j.axes[1]
+            lower_q += [lim.lower for lim in j.axis_limits]
+            upper_q += [lim.upper for lim in j.axis_limits]
+        elif j.type is JointType.BALL:
+            joints[i, JOINT_KIND] = KIND_BALL
+            lower_q += [-np.inf] * 4
+            upper_q += [np.inf] * 4
+        else:
+            lower_q.append(j.limits.lower)
+            upper_q.append(j.limits.upper)
         parent[i] = a
         anchor_of[j.child] = (i, np.eye(4))
     names = [lk.name for lk in spec.links]
@@ -217,20 +263,22 @@ def compile_tree(spec: ArmSpec) -> CompiledTree:
         anchor[k] = a
         if a >= 0:
             paths[k] = joint_paths[a]
-    lower = np.array([j.limits.lower for j in actuated], dtype=float)
-    upper = np.array([j.limits.upper for j in actuated], dtype=float)
+    lower = np.array(lower_q, dtype=float)
+    upper = np.array(upper_q, dtype=float)
     return CompiledTree(
         joint_names=tuple(j.name for j in actuated), frame_names=tuple(names),
         joints=_readonly(joints), parent=_readonly(parent), frames=_readonly(frames),
         anchor=_readonly(anchor), paths=_readonly(paths), lower=_readonly(lower),
         upper=_readonly(upper),
-        frame_reach=_readonly(_frame_reach(joints, parent, frames, anchor, lower, upper)))
+        frame_reach=_readonly(_frame_reach(joints, parent, frames, anchor, lower, upper)),
+        nq=len(lower_q), nv=nv)
 
 
 def _frame_reach(joints: Array, parent: IndexArray, frames: Array, anchor: IndexArray,
                  lower: Array, upper: Array) -> Array:
     """Per frame, the bound of :meth:`CompiledTree.reach` from the base origin [m]."""
-    travel = np.maximum(np.abs(lower), np.abs(upper))
+    first = joints[:, JOINT_Q].astype(np.int64)  # a prismatic joint's entry of q
+    travel = np.maximum(np.abs(lower[first]), np.abs(upper[first])) if len(joints) else first
     prismatic = joints[:, JOINT_PRISMATIC] > 0.5
     # a prismatic joint's limits bound its travel (the config requires them); none count as 0
     step = (np.linalg.norm(joints[:, TRANSLATION], axis=1)

@@ -42,6 +42,7 @@ class SymbolicFK:
     """
 
     def __init__(self, model: KinematicModel, q: Any = None):
+        model.require_one_dof("symbolic forward kinematics (NLP)")
         ca = _casadi()
         self.model = model
         self.q = ca.SX.sym("q", model.dof) if q is None else q

@@ -131,6 +131,7 @@ class MotionLimits:
         Defaults are :data:`DEFAULT_VELOCITY` and :data:`DEFAULT_ACCELERATION`; a joint without a
         jerk limit is planned with unbounded jerk.
         """
+        model.require_one_dof("joint-space motion planning (per-joint trajectories)")
         prismatic = np.array([t is JointType.PRISMATIC for t in model.joint_types])
         vdef = np.where(prismatic, DEFAULT_VELOCITY["prismatic"], DEFAULT_VELOCITY["rotary"])
         adef = np.where(prismatic, DEFAULT_ACCELERATION["prismatic"],

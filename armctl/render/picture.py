@@ -136,6 +136,18 @@ def pose_title(arm: KinematicModel, q: npt.ArrayLike, deg: bool = False) -> str:
     from armctl.config.schema import JointType
 
     qv = arm.as_q(q)
+    if arm.multi_dof_joints:  # per joint: a quaternion for a ball joint, angles otherwise
+        parts = []
+        for i, t in enumerate(arm.joint_types):
+            vals = qv[arm.q_index(i)]
+            if t is JointType.BALL:
+                parts.append("(" + " ".join(f"{v:.3f}" for v in vals) + ")")
+            elif t is JointType.PRISMATIC:
+                parts.append(f"{vals[0]:.3f} m")
+            else:
+                parts += [f"{math.degrees(v):.1f}" if deg else f"{v:.3f}" for v in vals]
+        unit = "deg" if deg else "rad"
+        return f"{arm.name}  q = [{', '.join(parts)}] ({unit}; ball joints as quaternions)"
     prismatic = [t is JointType.PRISMATIC for t in arm.joint_types]
     unit = "deg" if deg else "rad"
     if all(prismatic):

@@ -131,6 +131,7 @@ class Robot:
                  speed: float | None = None, exit_policy: ExitPolicy | None = None,
                  effective: EffectiveLimits | None = None, clock: Clock | None = None,
                  scene: SceneSpec | None = None, collisions: bool = True):
+        arm.require_one_dof("a robot on a servo bus (servos drive 1-DOF joints)")
         self.config_arm = arm
         self.scene = scene
         self.check_collisions = collisions

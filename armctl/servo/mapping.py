@@ -298,7 +298,12 @@ class JointMapping:
                 if shift:  # move the encoder wrap out of the travel with the homing offset
                     zero_tick += shift
                     homing = vendor.homing_sign * shift
-            rest = home.get(joint.name, 0.0)
+            if joint.type.nq != 1:  # the config refuses these; a spec built in code may not
+                raise ConfigError(f"arm {spec.name!r}: joint {joint.name!r} is a "
+                                  f"{joint.type.value} joint, which servos cannot drive", None,
+                                  "drive 1-DOF joints with servos; remove this joint's servo")
+            rest_value = home.get(joint.name, 0.0)
+            rest = float(rest_value) if not isinstance(rest_value, tuple) else 0.0
             rest = min(max(rest, lower), upper) if math.isfinite(lower) or math.isfinite(
                 upper) else rest
             maps.append(JointMap(joint.name, s.id, s.model, joint.type, zero_tick, zero_value,

@@ -14,6 +14,7 @@ from armctl.config.arm_yaml import parse_arm
 from armctl.config.source import parse_yaml
 from armctl.config.urdf import load_urdf, parse_urdf
 from armctl.config.writer import dump_arm_yaml
+from armctl.errors import ConfigError
 
 
 def _random_tree(seed: int) -> str:
@@ -93,7 +94,7 @@ def test_mimic_joint_becomes_fixed_with_a_note(tmp_path: Path) -> None:
     np.testing.assert_allclose(arm.fk([0.0], "c")[:3, 3], [0.01, 0, 0], atol=1e-15)
 
 
-def test_multi_dof_joints_expand(tmp_path: Path) -> None:
+def test_multi_dof_joints_are_one_joint_each(tmp_path: Path) -> None:
     p = tmp_path / "s.yaml"
     p.write_text("""armctl: 1
 name: s
@@ -103,26 +104,45 @@ joints:
     type: spherical
     parent: base
     child: upper
-    limits: [{lower: -1, upper: 1}, {lower: -2, upper: 2}, {lower: -3, upper: 3}]
+    limits: {swing: 1.2, twist: {lower: -1, upper: 1}}
   - name: wrist
     type: universal
     parent: upper
     child: hand
     origin: {xyz: [0, 0, 0.3]}
     axes: [[0, 1, 0], [1, 0, 0]]
-    limits: [{lower: -1, upper: 1}, {lower: -1, upper: 1}]
+    limits: [{lower: -1, upper: 1}, {lower: -0.5, upper: 0.5}]
+poses:
+  home: [1, 0, 0, 0, 0.1, -0.2]
 """)
     arm = armctl.load_arm(p)
-    assert arm.joint_names == ("shoulder_1", "shoulder_2", "shoulder_3", "wrist_1", "wrist_2")
-    np.testing.assert_array_equal(arm.upper, [1, 2, 3, 1, 1])
-    q = np.array([0.3, -0.2, 0.5, 0.1, 0.4])
+    assert arm.joint_names == ("shoulder", "wrist")
+    assert (arm.nq, arm.nv) == (6, 5)
+    np.testing.assert_array_equal(arm.upper[4:], [1, 0.5])
+    from scipy.spatial.transform import Rotation
+
     from armctl.spatial import axis_angle_to_matrix as rot
 
-    r = rot([1, 0, 0], q[0]) @ rot([0, 1, 0], q[1]) @ rot([0, 0, 1], q[2])
-    hand = r @ rot([0, 1, 0], q[3]) @ rot([1, 0, 0], q[4])
+    r = Rotation.from_rotvec([0.3, -0.2, 0.5])
+    q = np.array([*r.as_quat(scalar_first=True), 0.1, 0.4])
+    hand = r.as_matrix() @ rot([0, 1, 0], q[4]) @ rot([1, 0, 0], q[5])
     pose = arm.fk(q)
     np.testing.assert_allclose(pose[:3, :3], hand, atol=1e-14)
-    np.testing.assert_allclose(pose[:3, 3], r @ [0, 0, 0.3], atol=1e-14)
+    np.testing.assert_allclose(pose[:3, 3], r.as_matrix() @ [0, 0, 0.3], atol=1e-14)
+    # written back and read again: the same joints, limits and poses
+    again = tmp_path / "again.yaml"
+    again.write_text(dump_arm_yaml(arm.spec))
+    back = armctl.load_arm(again)
+    assert back.spec.joints == arm.spec.joints
+    assert back.spec.poses == arm.spec.poses
+
+
+def test_urdf_has_no_ball_joint(tmp_path: Path) -> None:
+    p = tmp_path / "b.urdf"
+    p.write_text("""<robot name="b"><link name="a"/><link name="b"/>
+  <joint name="j" type="spherical"><parent link="a"/><child link="b"/></joint></robot>""")
+    with pytest.raises(ConfigError, match="spherical, which URDF does not define"):
+        load_urdf(p)
 
 
 _TOOL_URDF = """<robot name="t"><link name="base"/><link name="l1"/><link name="hand"/>

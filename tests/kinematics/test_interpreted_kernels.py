@@ -35,8 +35,8 @@ def test_interpreted_kernels_equal_the_compiled_ones(name: str) -> None:
             rows, idx = arm._chain_of(arm.frame_index(frame))
             assert np.array_equal(_kernels.interpreted("chain_fk")(q, rows, idx),
                                   _kernels.chain_fk(q, rows, idx))
-            assert np.array_equal(_kernels.interpreted("chain_jacobian")(q, rows, idx),
-                                  _kernels.chain_jacobian(q, rows, idx))
+            assert np.array_equal(_kernels.interpreted("chain_jacobian")(q, rows, idx, arm.nv),
+                                  _kernels.chain_jacobian(q, rows, idx, arm.nv))
 
 
 def test_an_unknown_kernel_is_an_attribute_error() -> None:

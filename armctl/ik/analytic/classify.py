@@ -234,8 +234,15 @@ def classify(model: KinematicModel, frame: str | None = None, kind: GoalKind = G
     Raises:
         NoDecompositionError: If no family fits (a 6R chain on which the general elimination
             is not well posed, a prismatic joint, a goal type the chain cannot meet in closed
-            form).
+            form; an arm with universal or ball joints).
     """
+    if model.multi_dof_joints:
+        raise NoDecompositionError(
+            f"arm {model.name!r} has the multi-DOF joint(s) "
+            f"{', '.join(repr(n) for n in model.multi_dof_joints)}; the closed forms here are "
+            "for chains of 1-DOF joints",
+            "write a spherical wrist as three revolute joints for analytic IK, or keep the "
+            "ball joint and use a numerical solver")
     dec = _classify(model, frame, kind, tol)
     return replace(dec, dof=model.dof, label=dec.describe(model),
                    free_names=tuple(model.joint_names[j] for j in dec.free))

@@ -1,0 +1,117 @@
+"""IK on arms with ball and universal joints (armctl.ik.tangent): every method reaches position
+and pose goals from random starts, answers lie inside the limits (cone and twist included),
+success only when forward kinematics meets the goal."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import armctl
+from armctl.errors import InputError
+from armctl.ik import PoseGoal, PositionGoal
+
+ARM = """armctl: 1
+name: b
+base: base
+joints:
+  - name: shoulder
+    type: ball
+    parent: base
+    child: upper
+    origin: {xyz: [0, 0, 0.1]}
+    limits: {swing: 150 deg, twist: {lower: -150 deg, upper: 150 deg}}
+  - name: elbow
+    type: revolute
+    parent: upper
+    child: fore
+    origin: {xyz: [0, 0, 0.3]}
+    axis: [0, 1, 0]
+    limits: {lower: -2.5, upper: 2.5}
+  - name: wrist
+    type: ball
+    parent: fore
+    child: hand
+    origin: {xyz: [0, 0, 0.25]}
+    limits: {swing: 100 deg}
+frames:
+  - name: tcp
+    parent: hand
+    origin: {xyz: [0, 0, 0.08]}
+"""
+
+METHODS = ("auto", "dls", "pinv", "jt", "ccd", "ccd-jt")
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory: pytest.TempPathFactory) -> armctl.Arm:
+    p = tmp_path_factory.mktemp("arm") / "arm.yaml"
+    p.write_text(ARM)
+    return armctl.load_arm(p)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_position_goals_from_random_starts(arm: armctl.Arm, method: str) -> None:
+    rng = np.random.default_rng(METHODS.index(method))
+    opts = armctl.ik.IKOptions(max_iterations=200, restarts=20, time_limit=5.0, seed=1)
+    for _ in range(4):
+        target = arm.fk(arm.sample(rng))[:3, 3]
+        res = arm.ik(PositionGoal(target), q0=arm.sample(rng), solver=method, options=opts)
+        assert res.success, (method, res.message)
+        assert np.linalg.norm(arm.fk(res.q)[:3, 3] - target) < 1e-4
+        assert arm.within_limits(res.q)
+        assert abs(np.linalg.norm(res.q[0:4]) - 1) < 1e-9
+
+
+@pytest.mark.parametrize("method", ("auto", "dls", "pinv", "ccd-jt", "ccd"))
+def test_pose_goals(arm: armctl.Arm, method: str) -> None:
+    rng = np.random.default_rng(5)
+    opts = armctl.ik.IKOptions(max_iterations=300, restarts=30, time_limit=10.0, seed=2)
+    for _ in range(3):
+        target = arm.fk(arm.sample(rng))
+        res = arm.ik(PoseGoal(target), q0=arm.sample(rng), solver=method, options=opts)
+        assert res.success, (method, res.message)
+        np.testing.assert_allclose(arm.fk(res.q), target, atol=1e-4)
+        assert arm.within_limits(res.q)
+
+
+def test_the_old_singular_middle_angle_is_reached(arm: armctl.Arm) -> None:
+    # the shoulder turned 90 deg about y (the middle angle where the Euler expansion locked),
+    # then a turn about the lost axis
+    q = arm.neutral()
+    q[0:4] = Rotation.from_euler("xyz", [0.0, math.pi / 2, 0.4]).as_quat(scalar_first=True)
+    target = arm.fk(q)
+    res = arm.ik(PoseGoal(target), q0=arm.neutral(), solver="dls")
+    assert res.success
+    np.testing.assert_allclose(arm.fk(res.q), target, atol=1e-4)
+
+
+def test_unreachable_is_no_success(arm: armctl.Arm) -> None:
+    opts = armctl.ik.IKOptions(max_iterations=50, restarts=2, time_limit=2.0)
+    res = arm.ik(PositionGoal([2.0, 0.0, 0.0]), solver="dls", options=opts)
+    assert not res.success
+    assert arm.within_limits(res.q)
+
+
+def test_what_the_tangent_methods_do_not_take(arm: armctl.Arm) -> None:
+    with pytest.raises(InputError, match="solver 'nlp' supports 1-DOF joints only"):
+        arm.ik(PositionGoal([0.1, 0, 0.5]), solver="nlp")
+
+
+def test_cli_ik_on_a_ball_arm(tmp_path_factory: pytest.TempPathFactory,
+                              capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from armctl.cli import main
+
+    p = tmp_path_factory.mktemp("cli") / "arm.yaml"
+    p.write_text(ARM)
+    assert main(["ik", str(p), "--xyz", "0.1", "0", "0.5", "--no-collisions", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["success"]
+    arm = armctl.load_arm(p)
+    np.testing.assert_allclose(arm.fk(np.array(data["q"]))[:3, 3], [0.1, 0, 0.5], atol=1e-4)
+    assert len(data["joints"]["shoulder"]) == 4
