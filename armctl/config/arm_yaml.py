@@ -34,7 +34,7 @@ __all__ = ["SCHEMA_VERSION", "load_arm_yaml", "parse_arm"]
 _TOP_REQUIRED = ("name", "base", "joints")
 _TOP_OPTIONAL = (
     "armctl", "description", "source", "dh_convention", "links", "frames", "tool",
-    "end_effectors", "poses", "bus", "motion", "scene", "collision", "role",
+    "end_effectors", "poses", "bus", "motion", "scene", "collision", "role", "skin",
 )
 _JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "universal", "ball", "spherical")
 _DEFAULT_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -123,6 +123,11 @@ def parse_arm(doc: Document) -> ArmSpec:
         from armctl.config.motion import parse_motion
 
         spec = _replace(spec, motion=parse_motion(top.child("motion").mapping()))
+    if top.has("skin"):
+        from armctl.config.skin import parse_skin
+
+        spec = _replace(spec, skin=parse_skin(top.child("skin").mapping(), doc.file,
+                                              frame_names, list(poses)))
     if top.has("scene") or top.has("collision"):
         from armctl.config.scene_yaml import parse_collision, parse_scene
 

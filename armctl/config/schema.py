@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from armctl.config.bus import BusSpec
     from armctl.config.motion import MotionSpec
     from armctl.config.scene import CollisionSpec, SceneSpec
+    from armctl.config.skin import SkinSpec
 
 __all__ = [
     "ArmSpec",
@@ -243,6 +244,8 @@ class ArmSpec:
         collision: The ``collision:`` section (allowed-collision matrix); ``None``: not
             given (the matrix is found by sampling when first needed).
         role: ``leader`` for a leader arm moved by hand in teleoperation, else ``arm``.
+        skin: The ``skin:`` section (one mesh bound rigidly to the links, drawn instead of
+            the link shapes); ``None``: not given.
     """
 
     name: str
@@ -261,6 +264,7 @@ class ArmSpec:
     scene: SceneSpec | None = None
     collision: CollisionSpec | None = None
     role: ArmRole = ArmRole.ARM
+    skin: SkinSpec | None = None
 
     def link(self, name: str) -> LinkSpec:
         """The link called ``name``."""

@@ -271,6 +271,16 @@ def dump_arm_yaml(spec: ArmSpec, out_file: Path | None = None, header: str = "")
                 value = values[j.name]
                 row += list(value) if isinstance(value, tuple) else [value]
             lines.append(f"  {_text(name)}: {_vec(tuple(row))}")
+    if spec.skin is not None:
+        path = spec.skin.path
+        if rel is not None:
+            try:
+                path = path.resolve().relative_to(rel.resolve())
+            except ValueError:
+                path = spec.skin.path.resolve()
+        lines += ["skin:", f"  mesh: {_text(str(path))}"]
+        if spec.skin.bind_pose is not None:
+            lines.append(f"  bind_pose: {_text(spec.skin.bind_pose)}")
     if spec.scene is not None:
         lines += scene_section(spec.scene, rel)
     if spec.collision is not None:

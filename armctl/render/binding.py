@@ -6,6 +6,12 @@ links for bones.
 :class:`BoundGeometry` tessellates each link's shapes once, in the link frame (the part of the
 drawing that depends on the model alone). Posing the arm is then one rigid transform per link:
 the link's forward-kinematics pose applied to its vertices.
+
+An arm with a ``skin:`` (one mesh modelled in a bind pose, each vertex bound to one link, see
+:mod:`armctl.config.skin`) is drawn from its skin instead of its link shapes: a vertex ``v`` of
+link ``b`` is drawn at ``T_b(q) · T_b(q_bind)^-1 · v``. The product ``T_b(q_bind)^-1 · v`` is
+the vertex in its link's frame, computed here once; posing is then the same one transform per
+link as for the link shapes.
 """
 
 from __future__ import annotations
@@ -15,13 +21,14 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from armctl.config.schema import Geometry
+from armctl.config.schema import Geometry, Mesh
+from armctl.config.skin import SkinSpec
 from armctl.kinematics.linkshapes import GeometryRole, link_shapes
 from armctl.kinematics.model import KinematicModel
 from armctl.render.shapes import TriMesh, shape_mesh
 from armctl.typing import Array
 
-__all__ = ["BoundGeometry", "BoundShape", "link_meshes"]
+__all__ = ["BoundGeometry", "BoundShape", "bind_pose", "link_meshes"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,13 +64,17 @@ class BoundGeometry:
     def __init__(self, arm: KinematicModel, role: GeometryRole = GeometryRole.VISUAL):
         self.arm = arm
         self.role = role
-        shapes: list[BoundShape] = []
-        config = arm.spec.file
-        for name, ls in link_shapes(arm.spec, role).items():
-            frame = arm.frame_index(name)
-            for shape in ls.shapes:
-                shapes.append(BoundShape(name, frame, shape, shape_mesh(shape, name, config),
-                                         ls.default))
+        skin = arm.spec.skin
+        if role is GeometryRole.VISUAL and skin is not None:
+            shapes = _skin_shapes(arm, skin)
+        else:
+            shapes = []
+            config = arm.spec.file
+            for name, ls in link_shapes(arm.spec, role).items():
+                frame = arm.frame_index(name)
+                for shape in ls.shapes:
+                    shapes.append(BoundShape(name, frame, shape, shape_mesh(shape, name, config),
+                                             ls.default))
         self.shapes: tuple[BoundShape, ...] = tuple(shapes)
         #: Link names, in the order of ``spec.links``.
         self.links: tuple[str, ...] = tuple(lk.name for lk in arm.spec.links)
@@ -106,6 +117,38 @@ class BoundGeometry:
             r = float(np.linalg.norm(s.mesh.vertices, axis=1).max(initial=0.0))
             out[s.link] = max(out.get(s.link, 0.0), r)
         return out
+
+
+def bind_pose(arm: KinematicModel, skin: SkinSpec) -> Array:
+    """The joint vector of a skin's bind pose (its named pose, or the zero pose)."""
+    if skin.bind_pose is not None:
+        return arm.named_pose(skin.bind_pose)
+    return np.zeros(arm.dof)
+
+
+def _skin_shapes(arm: KinematicModel, skin: SkinSpec) -> list[BoundShape]:
+    """One shape per bone: the bone's part of the skin, moved into the bone's frame.
+
+    Each part keeps the triangles whose three vertices are bound to the bone; a triangle whose
+    vertices lie on different bones is drawn with the bone of its first vertex, its other
+    vertices copied into that bone's part (each drawn vertex still follows one bone only).
+    """
+    poses = arm.fk_frames(bind_pose(arm, skin))
+    bones = sorted(set(skin.vertex_link), key=arm.frame_index)
+    link_of = {f.name: f.parent for f in arm.spec.frames}  # a bone folded into its parent
+    vertex_link = np.array(skin.vertex_link)
+    shape = Mesh(skin.path)
+    out = []
+    for bone in bones:
+        frame = arm.frame_index(bone)
+        mine = vertex_link[skin.faces[:, 0]] == bone
+        faces = skin.faces[mine]
+        used, inverse = np.unique(faces, return_inverse=True)
+        t = np.linalg.inv(poses[frame])
+        local = skin.vertices[used] @ t[:3, :3].T + t[:3, 3]
+        out.append(BoundShape(link_of.get(bone, bone), frame, shape,
+                              TriMesh(local, inverse.reshape(-1, 3)), False))
+    return out
 
 
 def link_meshes(arm: KinematicModel, q: npt.ArrayLike,

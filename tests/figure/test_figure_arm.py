@@ -1,0 +1,114 @@
+"""The bundled figure through the arm tools: IK of a hand and a foot at once, render, info, bus.
+
+IK answers are checked by an independent chain of matrices built from the arm file (scipy
+rotations), not by armctl's FK.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
+from scipy.spatial.transform import Rotation
+
+import armctl
+from armctl.cli import main
+from armctl.config import bundled_configs_dir
+from armctl.ik import IKOptions, PoseGoal, PositionGoal
+
+#: A budget that does not depend on the machine's speed (restarts count, not seconds).
+BUDGET = IKOptions(time_limit=60.0, restarts=20, seed=0)
+
+FIGURE = bundled_configs_dir() / "figure.yaml"
+WALK = Path(__file__).parent.parent.parent / "docs" / "examples" / "figure_walk.yaml"
+
+
+def _frame_poses(q: dict[str, float]) -> dict[str, np.ndarray]:
+    """Pose of every link and named frame, multiplying joint matrices from the base out."""
+    doc = yaml.safe_load(FIGURE.read_text(encoding="utf-8"))
+
+    def origin(o: dict) -> np.ndarray:
+        t = np.eye(4)
+        t[:3, 3] = o.get("xyz", [0, 0, 0])
+        t[:3, :3] = Rotation.from_euler("xyz", o.get("rpy", [0, 0, 0])).as_matrix()
+        return t
+
+    poses = {doc["base"]: np.eye(4)}
+    pending = list(doc["joints"])
+    while pending:
+        j = pending.pop(0)
+        if j["parent"] not in poses:
+            pending.append(j)
+            continue
+        motion = np.eye(4)
+        if j["type"] == "revolute":
+            motion[:3, :3] = Rotation.from_rotvec(np.asarray(j["axis"], float)
+                                                  * q[j["name"]]).as_matrix()
+        elif j["type"] == "spherical":
+            for i, axis in enumerate(j["axes"], start=1):
+                motion[:3, :3] = motion[:3, :3] @ Rotation.from_rotvec(
+                    np.asarray(axis, float) * q[f"{j['name']}_{i}"]).as_matrix()
+        poses[j["child"]] = poses[j["parent"]] @ origin(j.get("origin", {})) @ motion
+    for f in doc["frames"]:
+        poses[f["name"]] = poses[f["parent"]] @ origin(f.get("origin", {}))
+    return poses
+
+
+def test_hand_and_feet_at_once_within_the_joint_limits():
+    arm = armctl.load_arm("figure")
+    names = [j.name for j in arm.spec.actuated_joints]
+    q0 = arm.named_pose("stand")
+    start = _frame_poses(dict(zip(names, q0, strict=True)))
+    hand = np.array([0.40, -0.25, 1.15])  # the right hand reaches forward at chest height
+    step = start["left_sole"].copy()  # the left foot steps forward and up onto a stair
+    step[0, 3] += 0.25
+    step[2, 3] += 0.10
+    goals = [PositionGoal(hand, frame="right_palm"), PoseGoal(step, frame="left_sole"),
+             PoseGoal(start["right_sole"], frame="right_sole")]  # the right foot stays
+    result = arm.ik(goals, q0, "dls", options=BUDGET)
+    assert result.success, result.status
+    assert np.all(result.q >= arm.lower - 1e-12) and np.all(result.q <= arm.upper + 1e-12)
+    got = _frame_poses(dict(zip(names, result.q, strict=True)))
+    assert np.linalg.norm(got["right_palm"][:3, 3] - hand) < 1e-5  # the goals' tolerance
+    np.testing.assert_allclose(got["left_sole"], step, atol=1e-5)
+    np.testing.assert_allclose(got["right_sole"], start["right_sole"], atol=1e-5)
+    # the goal is out of reach without bending the knee: the answer uses the leg
+    assert result.q[names.index("left_knee")] > 0.2
+
+
+def test_a_foot_below_the_floor_reach_is_not_reported_as_reached():
+    arm = armctl.load_arm("figure")
+    q0 = arm.named_pose("stand")
+    far = np.array([0.0, 0.09, -0.5])  # half a metre under the floor: the leg is too short
+    result = arm.ik([PositionGoal(far, frame="left_sole")], q0, "dls",
+                    options=IKOptions(time_limit=60.0, restarts=3, seed=0))
+    assert not result.success
+
+
+def test_info_render_and_walk(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
+    assert main(["info", "figure", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    text = json.dumps(info)
+    for frame in ("right_palm", "left_palm", "right_sole", "left_sole"):
+        assert frame in text
+    png = tmp_path / "stand.png"
+    assert main(["render", "figure", "--pose", "stand", "-o", str(png), "--size", "2",
+                 "--dpi", "40"]) == 0
+    assert Image.open(png).size == (80, 80)
+    gif = tmp_path / "walk.gif"
+    assert main(["render", "figure", "--pose", "stand", "--keyframes", str(WALK), "-o",
+                 str(gif), "--fps", "3", "--size", "2", "--dpi", "30"]) == 0
+    frames = Image.open(gif)
+    assert frames.n_frames >= 8
+    capsys.readouterr()
+
+
+def test_a_motion_verb_on_the_bus_refuses_clearly(capsys: pytest.CaptureFixture[str]):
+    code = main(["move-joints", "figure", *(["0"] * 26)])
+    err = capsys.readouterr().err
+    assert code != 0
+    assert "no 'bus:' section" in err and "Traceback" not in err

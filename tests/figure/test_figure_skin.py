@@ -1,0 +1,207 @@
+"""The figure's skin: one mesh, every vertex bound to one bone, drawn T_b(q) T_b(q_bind)^-1 v.
+
+The independent truth is a per-vertex chain of 4x4 matrices along the path from the root,
+built here from the joint origins and axes of the arm file (scipy rotations), not from
+armctl's kinematics.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from scipy.spatial.transform import Rotation
+
+from armctl.config import bundled_configs_dir, load_spec
+from armctl.errors import ConfigError
+from armctl.kinematics.model import KinematicModel
+from armctl.render.binding import BoundGeometry
+
+FIGURE = bundled_configs_dir() / "figure.yaml"
+SKIN = bundled_configs_dir() / "figure_skin.npz"
+
+
+@pytest.fixture(scope="module")
+def figure() -> KinematicModel:
+    return KinematicModel(load_spec("figure"))
+
+
+def _copy(folder: Path) -> Path:
+    """The figure and its skin file copied into ``folder``; returns the arm file."""
+    shutil.copyfile(SKIN, folder / SKIN.name)
+    return Path(shutil.copyfile(FIGURE, folder / FIGURE.name))
+
+
+def _chain(doc: dict, q: dict[str, float]) -> dict[str, np.ndarray]:
+    """Pose of every link, multiplying joint matrices from the base outwards."""
+    poses = {doc["base"]: np.eye(4)}
+    pending = list(doc["joints"])
+    while pending:
+        j = pending.pop(0)
+        if j["parent"] not in poses:
+            pending.append(j)
+            continue
+        origin = np.eye(4)
+        o = j.get("origin", {})
+        origin[:3, 3] = o.get("xyz", [0, 0, 0])
+        origin[:3, :3] = Rotation.from_euler("xyz", o.get("rpy", [0, 0, 0])).as_matrix()
+        motion = np.eye(4)
+        if j["type"] == "revolute":
+            motion[:3, :3] = Rotation.from_rotvec(
+                np.asarray(j["axis"], float) * q[j["name"]]).as_matrix()
+        elif j["type"] == "spherical":  # three axes meeting in one point, NAME_1..3
+            for i, axis in enumerate(j["axes"], start=1):
+                motion[:3, :3] = motion[:3, :3] @ Rotation.from_rotvec(
+                    np.asarray(axis, float) * q[f"{j['name']}_{i}"]).as_matrix()
+        poses[j["child"]] = poses[j["parent"]] @ origin @ motion
+    return poses
+
+
+def test_skin_file_binds_every_vertex_to_one_bone():
+    with np.load(SKIN, allow_pickle=False) as data:
+        vertices, faces = data["vertices"], data["faces"]
+        bones, vertex_bone = data["bones"], data["vertex_bone"]
+    assert 2000 <= len(faces) <= 10000  # a few thousand triangles
+    assert vertex_bone.shape == (len(vertices),)  # exactly one bone per vertex
+    assert set(vertex_bone.tolist()) == set(range(len(bones)))  # every bone has vertices
+    assert SKIN.stat().st_size < 300_000
+    # height of an adult, standing on the floor
+    assert vertices[:, 2].min() == pytest.approx(0.0, abs=0.01)
+    assert vertices[:, 2].max() == pytest.approx(1.75, abs=0.01)
+
+
+def test_posed_vertices_equal_a_chain_of_matrices(figure: KinematicModel, tmp_path: Path):
+    doc = yaml.safe_load(figure.spec.file.read_text(encoding="utf-8"))
+    skin = figure.spec.skin
+    assert skin is not None
+    geo = BoundGeometry(figure)
+    drawn_count = sum(len(s.mesh.vertices) for s in geo.shapes)
+    assert drawn_count >= len(skin.vertices)
+    rng = np.random.default_rng(5)
+    assert skin.bind_pose == "tpose"
+    bind = _chain(doc, {j.name: 0.0 for j in figure.spec.actuated_joints})
+    for _ in range(3):
+        q = rng.uniform(figure.lower, figure.upper)
+        poses = _chain(doc, dict(zip([j.name for j in figure.spec.actuated_joints], q,
+                                     strict=True)))
+        expected = np.array([(poses[b] @ np.linalg.inv(bind[b]) @ np.append(v, 1.0))[:3]
+                             for v, b in zip(skin.vertices, skin.vertex_link, strict=True)])
+        drawn = geo.world_vertices(q)
+        # every skin vertex is drawn where its bone puts it (the drawing may copy a vertex
+        # shared by triangles of two bones; each copy follows its own bone)
+        per_shape = [(s.link, s.mesh.vertices) for s in geo.shapes]
+        assert {lk for lk, _ in per_shape} == set(skin.vertex_link)
+        for bone in set(skin.vertex_link):
+            mine = np.array([b == bone for b in skin.vertex_link])
+            start = sum(len(v) for lk, v in per_shape[:[lk for lk, _ in per_shape].index(bone)])
+            count = len(dict(per_shape)[bone])
+            got = drawn[start:start + count]
+            want = expected[mine]
+            # same point sets: each expected vertex is among the drawn ones of its bone
+            d = np.linalg.norm(want[:, None, :] - got[None, :, :], axis=2).min(axis=1)
+            assert d.max() < 1e-9, bone
+
+
+def test_the_mesh_follows_its_bones(figure: KinematicModel):
+    geo = BoundGeometry(figure)
+    rng = np.random.default_rng(9)
+    q0 = np.zeros(figure.dof)
+    q1 = rng.uniform(figure.lower, figure.upper)
+    a, b = geo.world_vertices(q0), geo.world_vertices(q1)
+    moved = np.linalg.norm(a - b, axis=1)
+    assert moved.max() > 0.3  # it moves
+    for link in set(figure.spec.skin.vertex_link):  # type: ignore[union-attr]
+        idx = np.flatnonzero(np.array(geo.links)[geo.face_link] == link)
+        verts = np.unique(geo.faces[idx].ravel())
+        da = np.linalg.norm(a[verts][:, None] - a[verts][None], axis=2)
+        db = np.linalg.norm(b[verts][:, None] - b[verts][None], axis=2)
+        np.testing.assert_allclose(da, db, atol=1e-9)  # rigid: distances kept
+    # the bind pose draws the mesh as modelled
+    skin = figure.spec.skin
+    assert skin is not None
+    d = np.linalg.norm(skin.vertices[:, None] - a[None], axis=2).min(axis=1)
+    assert d.max() < 1e-9
+
+
+def _variant(tmp_path: Path, **arrays: np.ndarray) -> Path:
+    arm = _copy(tmp_path)
+    with np.load(SKIN, allow_pickle=False) as data:
+        content = {k: data[k] for k in data.files}
+    content.update(arrays)
+    np.savez(tmp_path / "figure_skin.npz", **content)  # type: ignore[arg-type]
+    return arm
+
+
+def test_wrong_vertex_count_is_a_clear_error(tmp_path: Path):
+    with np.load(SKIN) as data:
+        short = data["vertex_bone"][:-5]
+    with pytest.raises(ConfigError, match=r"binds .* vertices but the mesh has .*exactly one"):
+        load_spec(_variant(tmp_path, vertex_bone=short))
+
+
+def test_unknown_bone_is_a_clear_error(tmp_path: Path):
+    with np.load(SKIN) as data:
+        bones = data["bones"].copy()
+    bones[0] = "pelvsi"
+    with pytest.raises(ConfigError, match="'pelvsi' is not a link") as info:
+        load_spec(_variant(tmp_path, bones=bones))
+    assert "pelvis" in str(info.value)  # the fix names the near link
+    assert info.value.details["key"] == "skin.mesh"
+
+
+def test_bad_or_missing_file_is_a_clear_error(tmp_path: Path):
+    arm = _copy(tmp_path)
+    (tmp_path / "figure_skin.npz").write_bytes(b"not a zip")
+    with pytest.raises(ConfigError, match="cannot read the skin file"):
+        load_spec(arm)
+    (tmp_path / "figure_skin.npz").unlink()
+    with pytest.raises(ConfigError, match="not found"):
+        load_spec(arm)
+    faces = np.array([[0, 1, 99999]])
+    with pytest.raises(ConfigError, match="refers to vertex 99999"):
+        load_spec(_variant(tmp_path, faces=faces))
+    doc = yaml.safe_load(arm.read_text(encoding="utf-8"))
+    doc["skin"]["bind_pose"] = "nope"
+    arm.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    with pytest.raises(ConfigError, match="bind pose 'nope' is not a named pose"):
+        load_spec(arm)
+
+
+def test_the_writer_keeps_the_skin(tmp_path: Path, figure: KinematicModel):
+    from armctl.config.writer import dump_arm_yaml
+
+    out = tmp_path / "sub" / "figure_copy.yaml"
+    out.parent.mkdir()
+    out.write_text(dump_arm_yaml(figure.spec, out), encoding="utf-8")
+    again = KinematicModel(load_spec(out))
+    assert again.spec.skin is not None and again.spec.skin.bind_pose == "tpose"
+    q = np.random.default_rng(2).uniform(figure.lower, figure.upper)
+    a, b = BoundGeometry(again).world_vertices(q), BoundGeometry(figure).world_vertices(q)
+    assert a.shape == b.shape  # the same vertices, the moved pelvis' part drawn last
+    assert np.linalg.norm(a[:, None] - b[None], axis=2).min(axis=1).max() < 1e-9
+
+
+def test_a_bind_pose_other_than_zero(tmp_path: Path, figure: KinematicModel):
+    """The same mesh declared as modelled in 'stand' is drawn as in the file at 'stand'."""
+    arm = _copy(tmp_path)
+    doc = yaml.safe_load(arm.read_text(encoding="utf-8"))
+    doc["skin"]["bind_pose"] = "stand"
+    arm.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    other = KinematicModel(load_spec(arm))
+    skin = other.spec.skin
+    assert skin is not None
+    drawn = BoundGeometry(other).world_vertices(other.named_pose("stand"))
+    d = np.linalg.norm(skin.vertices[:, None] - drawn[None], axis=2).min(axis=1)
+    assert d.max() < 1e-9
+    # at the T-pose each vertex is moved by T_b(0) T_b(stand)^-1 (chain of matrices)
+    names = [j.name for j in other.spec.actuated_joints]
+    stand = _chain(doc, dict(zip(names, other.named_pose("stand"), strict=True)))
+    zero = _chain(doc, dict.fromkeys(names, 0.0))
+    want = np.array([(zero[b] @ np.linalg.inv(stand[b]) @ np.append(v, 1.0))[:3]
+                     for v, b in zip(skin.vertices, skin.vertex_link, strict=True)])
+    drawn = BoundGeometry(other).world_vertices(np.zeros(other.dof))
+    d = np.linalg.norm(want[:, None] - drawn[None], axis=2).min(axis=1)
+    assert d.max() < 1e-9
