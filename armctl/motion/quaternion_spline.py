@@ -1,0 +1,172 @@
+"""Interpolation of ball-joint keyframes on the unit sphere: slerp and a C1 quaternion spline.
+
+A ball joint's value is a unit quaternion ``(w, x, y, z)`` (the convention of
+:mod:`armctl.spatial`). Interpolating its four numbers one by one, or three Euler angles, leaves
+the great circle between two keyframes: the rotation takes a longer way round and does not
+turn about one axis. Here keyframes of a ball joint are joined on the sphere:
+
+- **linear**: spherical linear interpolation (slerp) per segment, the shorter arc, at a uniform
+  angular rate within each segment;
+- **cubic**: the cumulative cubic Bézier quaternion curve of M.-J. Kim, M.-S. Kim and S. Y. Shin,
+  "A General Construction Scheme for Unit Quaternion Curves with Simple High Order
+  Derivatives", SIGGRAPH 1995. Segment ``k`` from keyframe ``p_k`` to ``p_k+1`` (duration
+  ``h_k``) is ``q(u) = c0 · exp(w1 B1(u)) · exp(w2 B2(u)) · exp(w3 B3(u))`` with control
+  quaternions ``c0 = p_k``, ``c1 = p_k exp(h_k ω_k / 3)``, ``c2 = p_k+1 exp(-h_k ω_k+1 / 3)``,
+  ``c3 = p_k+1``, ``w_i = log(c_i-1^-1 c_i)`` and the cumulative Bernstein basis
+  ``B1 = 1 - (1 - u)^3``, ``B2 = 3u^2 - 2u^3``, ``B3 = u^3``. Its body angular velocity at
+  the ends of the segment is ``ω_k`` and ``ω_k+1``, so neighbouring segments meet with the
+  same angular velocity: the curve is C1 on the sphere. The knot velocities are the
+  Catmull-Rom choice (the mean of the rates of the two neighbouring chords, in the body frame
+  of the knot), and zero at the ends of a run (the run starts and ends at rest).
+
+Here ``exp`` and ``log`` map a rotation vector [rad] to a unit quaternion and back (the half
+angle is applied inside), and angular velocities are body-frame rotation vectors per second.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from armctl.errors import PlanningError
+from armctl.typing import Array
+
+__all__ = [
+    "QuaternionSpline",
+    "quat_exp",
+    "quat_log",
+    "quat_multiply",
+    "slerp_path",
+]
+
+
+def quat_multiply(a: npt.ArrayLike, b: npt.ArrayLike) -> Array:
+    """Hamilton product ``a · b`` of quaternions ``(..., 4)`` ``(w, x, y, z)``."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
+                     aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw], -1)
+
+
+def _conj(q: Array) -> Array:
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_exp(rotvec: npt.ArrayLike) -> Array:
+    """Unit quaternions ``(..., 4)`` of rotation vectors ``(..., 3)`` [rad]."""
+    r = np.asarray(rotvec, dtype=float)
+    angle = np.linalg.norm(r, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    # sin(half)/angle, with its series near zero
+    k = np.where(angle > 1e-8, np.sin(half) / np.where(angle > 1e-8, angle, 1.0),
+                 0.5 - angle**2 / 48.0)
+    return np.concatenate([np.cos(half), k * r], -1)
+
+
+def quat_log(q: npt.ArrayLike) -> Array:
+    """Rotation vectors ``(..., 3)`` [rad] of unit quaternions ``(..., 4)``, angle in [0, pi]."""
+    q = np.asarray(q, dtype=float)
+    q = np.where(q[..., :1] < 0.0, -q, q)  # the same rotation, the shorter way
+    v = q[..., 1:]
+    s = np.linalg.norm(v, axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(s, q[..., :1])
+    k = np.where(s > 1e-12, angle / np.where(s > 1e-12, s, 1.0), 2.0)
+    return k * v
+
+
+def _aligned(knots: Array) -> Array:
+    """Knots with signs flipped so that each is on the near side of the one before."""
+    out = np.array(knots, dtype=float)
+    out /= np.linalg.norm(out, axis=-1, keepdims=True)
+    for i in range(1, len(out)):
+        if out[i] @ out[i - 1] < 0.0:
+            out[i] = -out[i]
+    return out
+
+
+def _check(times: npt.ArrayLike, knots: npt.ArrayLike) -> tuple[Array, Array]:
+    t = np.asarray(times, dtype=float)
+    q = np.asarray(knots, dtype=float)
+    if q.ndim != 2 or q.shape[1] != 4 or len(q) != len(t) or len(t) < 2:
+        raise PlanningError(f"quaternion keyframes must be (n, 4) with n >= 2 and one time "
+                            f"each, found {q.shape} and {t.shape}")
+    norms = np.linalg.norm(q, axis=1)
+    if not np.all(np.isfinite(q)) or np.any(np.abs(norms - 1.0) > 1e-6):
+        raise PlanningError("quaternion keyframes must be unit quaternions (w, x, y, z)")
+    if np.any(np.diff(t) <= 0.0):
+        raise PlanningError("keyframe times must increase")
+    return t, _aligned(q)
+
+
+def _segment(times: Array, t: Array) -> tuple[npt.NDArray[np.intp], Array]:
+    k = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2).astype(np.intp)
+    h = times[k + 1] - times[k]
+    u = np.clip((t - times[k]) / h, 0.0, 1.0)
+    return k, u
+
+
+def slerp_path(times: npt.ArrayLike, knots: npt.ArrayLike, t: npt.ArrayLike) -> Array:
+    """Piecewise slerp through quaternion keyframes.
+
+    Args:
+        times: ``(n,)`` increasing keyframe times [s].
+        knots: ``(n, 4)`` unit quaternions ``(w, x, y, z)``.
+        t: Sample times [s] (clamped to the keyframe times).
+
+    Returns:
+        ``(len(t), 4)`` unit quaternions, each on the great circle of its segment.
+
+    Raises:
+        PlanningError: For keyframes that are not unit quaternions, or times that do not increase.
+    """
+    tk, q = _check(times, knots)
+    k, u = _segment(tk, np.atleast_1d(np.asarray(t, dtype=float)))
+    rel = quat_log(quat_multiply(_conj(q[k]), q[k + 1]))
+    return quat_multiply(q[k], quat_exp(u[:, None] * rel))
+
+
+class QuaternionSpline:
+    """The C1 cumulative cubic Bézier quaternion spline of Kim, Kim and Shin (1995).
+
+    Args:
+        times: ``(n,)`` increasing keyframe times [s].
+        knots: ``(n, 4)`` unit quaternions ``(w, x, y, z)`` it passes through.
+        omega_start: Body angular velocity ``(3,)`` [rad/s] at the first keyframe (rest when
+            ``None``).
+        omega_end: The same at the last keyframe.
+
+    Raises:
+        PlanningError: For keyframes that are not unit quaternions, or times that do not increase.
+    """
+
+    def __init__(self, times: npt.ArrayLike, knots: npt.ArrayLike,
+                 omega_start: npt.ArrayLike | None = None,
+                 omega_end: npt.ArrayLike | None = None):
+        self.times, self.knots = _check(times, knots)
+        q, h = self.knots, np.diff(self.times)
+        chord = quat_log(quat_multiply(_conj(q[:-1]), q[1:])) / h[:, None]  # body rates
+        omega = np.zeros((len(q), 3))
+        omega[1:-1] = 0.5 * (chord[:-1] + chord[1:])
+        if omega_start is not None:
+            omega[0] = np.asarray(omega_start, dtype=float)
+        if omega_end is not None:
+            omega[-1] = np.asarray(omega_end, dtype=float)
+        #: Body angular velocity at each keyframe ``(n, 3)`` [rad/s].
+        self.knot_omega = omega
+        c0, c3 = q[:-1], q[1:]
+        c1 = quat_multiply(c0, quat_exp(h[:, None] * omega[:-1] / 3.0))
+        c2 = quat_multiply(c3, quat_exp(-h[:, None] * omega[1:] / 3.0))
+        self._w = np.stack([quat_log(quat_multiply(_conj(a), b))
+                            for a, b in ((c0, c1), (c1, c2), (c2, c3))], 1)  # (n-1, 3, 3)
+
+    def __call__(self, t: npt.ArrayLike) -> Array:
+        """Unit quaternions ``(len(t), 4)`` at times ``t`` [s] (clamped to the keyframes)."""
+        k, u = _segment(self.times, np.atleast_1d(np.asarray(t, dtype=float)))
+        basis = np.stack([1.0 - (1.0 - u) ** 3, 3.0 * u**2 - 2.0 * u**3, u**3], 1)
+        out = self.knots[k]
+        for i in range(3):
+            out = quat_multiply(out, quat_exp(basis[:, i:i + 1] * self._w[k, i]))
+        return out / np.linalg.norm(out, axis=1, keepdims=True)
