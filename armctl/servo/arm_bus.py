@@ -132,8 +132,11 @@ class ArmBus:
             ConfigError: No bus section, or an inconsistent one.
         """
         if spec.bus is None:
-            raise ConfigError(f"arm {spec.name!r} has no 'bus:' section", None,
-                              "add a bus section (see docs/bus.md)")
+            raise ConfigError(f"arm {spec.name!r} has no 'bus:' section: it has no servos to "
+                              "move", None,
+                              "add a bus section (see docs/bus.md), or draw the motion instead "
+                              f"of running it: 'armctl render {spec.name} --keyframes FILE -o "
+                              "motion.gif'")
         mapping = JointMapping.from_spec(spec, calibration)
         self = cls(spec.bus, mapping, retries=retries, wire_timing=wire_timing, clock=clock)
         self.calibration = calibration

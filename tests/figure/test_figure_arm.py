@@ -110,5 +110,9 @@ def test_info_render_and_walk(tmp_path: Path, capsys: pytest.CaptureFixture[str]
 def test_a_motion_verb_on_the_bus_refuses_clearly(capsys: pytest.CaptureFixture[str]):
     code = main(["move-joints", "figure", *(["0"] * 26)])
     err = capsys.readouterr().err
-    assert code != 0
-    assert "no 'bus:' section" in err and "Traceback" not in err
+    assert code == 2
+    assert "no 'bus:' section: it has no servos" in err and "Traceback" not in err
+    assert "armctl render figure --keyframes" in err
+    code = main(["play", str(WALK), "figure"])
+    err = capsys.readouterr().err
+    assert code == 2 and "no 'bus:' section" in err and "Traceback" not in err
