@@ -25,14 +25,18 @@ angle is applied inside), and angular velocities are body-frame rotation vectors
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import numpy.typing as npt
 
 from armctl.errors import PlanningError
+from armctl.motion.interpolate import Interpolation, spline_through
 from armctl.typing import Array
 
 __all__ = [
     "QuaternionSpline",
+    "keyframe_positions",
     "quat_exp",
     "quat_log",
     "quat_multiply",
@@ -170,3 +174,53 @@ class QuaternionSpline:
         for i in range(3):
             out = quat_multiply(out, quat_exp(basis[:, i:i + 1] * self._w[k, i]))
         return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def keyframe_positions(times: npt.ArrayLike, q: npt.ArrayLike, quaternions: Sequence[int],
+                       kind: Interpolation, t: npt.ArrayLike) -> Array:
+    """Positions along a run of keyframes whose joint vectors hold ball joints as quaternions.
+
+    The coordinates ``quaternions[i] .. quaternions[i] + 3`` of each ball joint are joined on
+    the sphere (:func:`slerp_path` for :attr:`Interpolation.LINEAR`, :class:`QuaternionSpline`
+    for the cubic kinds); every other coordinate exactly as the planner joins it for an arm of
+    1-DOF joints (:func:`~armctl.motion.interpolate.spline_through` for the cubic and minimum
+    jerk kinds, straight lines between keyframes for linear), at rest at both ends of the run.
+
+    Args:
+        times: ``(n,)`` increasing keyframe times [s], from 0.
+        q: ``(n, nq)`` keyframe joint vectors.
+        quaternions: Index of the first coordinate ``w`` of each ball joint in the joint vector.
+        kind: The interpolation.
+        t: Sample times [s].
+
+    Returns:
+        ``(len(t), nq)`` joint vectors.
+
+    Raises:
+        PlanningError: For a ball joint's keyframe that is not a unit quaternion, overlapping
+            or out-of-range quaternion blocks, or times that do not increase.
+    """
+    tk = np.asarray(times, dtype=float)
+    qk = np.asarray(q, dtype=float)
+    ts = np.atleast_1d(np.asarray(t, dtype=float))
+    nq = qk.shape[1]
+    blocks = sorted(int(i) for i in quaternions)
+    ball = np.zeros(nq, dtype=bool)
+    for i in blocks:
+        if i < 0 or i + 4 > nq or ball[i:i + 4].any():
+            raise PlanningError(f"quaternion block at coordinate {i} overlaps another or is "
+                                f"outside the joint vector of {nq} coordinates")
+        ball[i:i + 4] = True
+    out = np.empty((ts.size, nq))
+    rest = ~ball
+    if rest.any():
+        if kind is Interpolation.LINEAR:
+            for j in np.flatnonzero(rest):
+                out[:, j] = np.interp(ts, tk, qk[:, j])
+        else:
+            out[:, rest] = spline_through(tk, qk[:, rest], kind).sample_many(ts)[0]
+    for i in blocks:
+        knots = qk[:, i:i + 4]
+        out[:, i:i + 4] = (slerp_path(tk, knots, ts) if kind is Interpolation.LINEAR
+                           else QuaternionSpline(tk, knots)(ts))
+    return out

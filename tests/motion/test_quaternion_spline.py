@@ -11,7 +11,14 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from armctl.errors import PlanningError
-from armctl.motion.quaternion_spline import QuaternionSpline, quat_exp, quat_log, slerp_path
+from armctl.motion.interpolate import Interpolation, spline_through
+from armctl.motion.quaternion_spline import (
+    QuaternionSpline,
+    keyframe_positions,
+    quat_exp,
+    quat_log,
+    slerp_path,
+)
 
 
 def _rot(q: np.ndarray) -> Rotation:
@@ -125,3 +132,25 @@ def test_bad_keyframes_are_refused(knots, times, what):
     with pytest.raises(PlanningError, match=r"quaternion|increase") as info:
         QuaternionSpline(times, knots)
     assert what in str(info.value)
+
+
+@pytest.mark.parametrize("kind", list(Interpolation))
+def test_a_joint_vector_with_a_ball_joint(kind: Interpolation):
+    """1-DOF coordinates are joined as before; the ball joint's block stays on the sphere."""
+    rng = np.random.default_rng(4)
+    times = np.array([0.0, 0.7, 1.6, 2.2])
+    ball = _wxyz(Rotation.random(4, random_state=11))
+    other = rng.uniform(-1, 1, (4, 3))
+    q = np.column_stack([other[:, :1], ball, other[:, 1:]])  # [r0, w, x, y, z, r1, r2]
+    t = np.linspace(0, times[-1], 301)
+    got = keyframe_positions(times, q, [1], kind, t)
+    if kind is Interpolation.LINEAR:
+        want = np.column_stack([np.interp(t, times, other[:, j]) for j in range(3)])
+    else:
+        want = spline_through(times, other, kind).sample_many(t)[0]
+    np.testing.assert_array_equal(got[:, [0, 5, 6]], want)
+    np.testing.assert_allclose(np.linalg.norm(got[:, 1:5], axis=1), 1.0, atol=1e-12)
+    on_knots = keyframe_positions(times, q, [1], kind, times)[:, 1:5]
+    assert np.all(np.abs(np.sum(on_knots * ball, axis=1)) > 1 - 1e-12)
+    with pytest.raises(PlanningError, match="overlaps another or is outside"):
+        keyframe_positions(times, q, [1, 3], kind, t)
