@@ -205,3 +205,17 @@ def test_a_bind_pose_other_than_zero(tmp_path: Path, figure: KinematicModel):
     drawn = BoundGeometry(other).world_vertices(np.zeros(other.dof))
     d = np.linalg.norm(want[:, None] - drawn[None], axis=2).min(axis=1)
     assert d.max() < 1e-9
+
+
+def test_the_shipped_skin_is_what_the_tool_builds():
+    import importlib.util
+
+    tool = Path(__file__).parent.parent.parent / "tools" / "make_figure_mesh.py"
+    spec = importlib.util.spec_from_file_location("make_figure_mesh", tool)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    built = module.build(FIGURE)
+    with np.load(SKIN, allow_pickle=False) as data:
+        for key in ("vertices", "faces", "bones", "vertex_bone"):
+            np.testing.assert_array_equal(data[key], built[key], err_msg=key)
