@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from armctl.config.schema import Geometry, Mesh
+from armctl.config.schema import Geometry, JointType, Mesh
 from armctl.config.skin import SkinSpec
 from armctl.kinematics.linkshapes import GeometryRole, link_shapes
 from armctl.kinematics.model import KinematicModel
@@ -120,10 +120,18 @@ class BoundGeometry:
 
 
 def bind_pose(arm: KinematicModel, skin: SkinSpec) -> Array:
-    """The joint vector of a skin's bind pose (its named pose, or the zero pose)."""
+    """The joint vector ``(nq,)`` of a skin's bind pose.
+
+    Its named pose, or the zero pose: every coordinate at zero, every ball joint at the
+    identity rotation.
+    """
     if skin.bind_pose is not None:
         return arm.named_pose(skin.bind_pose)
-    return np.zeros(arm.dof)
+    q = np.zeros(arm.nq)
+    for joint in arm.spec.actuated_joints:
+        if joint.type is JointType.BALL:
+            q[arm.q_index(joint.name).start] = 1.0
+    return q
 
 
 def _skin_shapes(arm: KinematicModel, skin: SkinSpec) -> list[BoundShape]:

@@ -219,3 +219,29 @@ def test_the_shipped_skin_is_what_the_tool_builds():
     with np.load(SKIN, allow_pickle=False) as data:
         for key in ("vertices", "faces", "bones", "vertex_bone"):
             np.testing.assert_array_equal(data[key], built[key], err_msg=key)
+
+
+def test_a_skin_on_an_arm_with_a_ball_joint(tmp_path: Path):
+    """Vertices of a bone behind a ball joint follow it: T_b(q) T_b(q_bind)^-1 v, the bind
+    pose every coordinate at zero and the ball at the identity."""
+    from armctl_testpaths import DATA
+
+    arm_file = tmp_path / "ball_arm.yaml"
+    doc = yaml.safe_load((DATA / "ball_arm.yaml").read_text(encoding="utf-8"))
+    doc["skin"] = {"mesh": "skin.npz"}
+    arm_file.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    rng = np.random.default_rng(3)
+    vertices = rng.uniform(-0.05, 0.05, (12, 3)) + np.array([0.0, 0.0, 0.3])
+    np.savez(tmp_path / "skin.npz", vertices=vertices, faces=np.arange(12).reshape(4, 3),
+             bones=np.array(["upper", "fore"]), vertex_bone=np.repeat([0, 1], 6))
+    arm = KinematicModel(load_spec(arm_file))
+    q = arm.integrate(arm.neutral(), rng.uniform(-0.8, 0.8, arm.nv))
+    frames = arm.fk_frames(q)
+    zero = np.zeros(arm.nq)
+    zero[arm.q_index("shoulder").start] = 1.0  # the identity quaternion
+    bind = arm.fk_frames(zero)
+    drawn = BoundGeometry(arm).world_vertices(q)
+    for v, bone in zip(vertices, ["upper"] * 6 + ["fore"] * 6, strict=True):
+        i = arm.frame_index(bone)
+        want = (frames[i] @ np.linalg.inv(bind[i]) @ np.append(v, 1.0))[:3]
+        assert np.linalg.norm(drawn - want, axis=1).min() < 1e-12
