@@ -16,6 +16,7 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from armctl.config import bundled_configs_dir, load_spec
+from armctl.config.schema import JointType
 from armctl.errors import ConfigError
 from armctl.kinematics.model import KinematicModel
 from armctl.render.binding import BoundGeometry
@@ -245,3 +246,54 @@ def test_a_skin_on_an_arm_with_a_ball_joint(tmp_path: Path):
         i = arm.frame_index(bone)
         want = (frames[i] @ np.linalg.inv(bind[i]) @ np.append(v, 1.0))[:3]
         assert np.linalg.norm(drawn - want, axis=1).min() < 1e-12
+
+
+def _ball_figure(folder: Path) -> Path:
+    """The figure with each three-axis shoulder and hip written as one ball joint."""
+    doc = yaml.safe_load(FIGURE.read_text(encoding="utf-8"))
+    joints = []
+    for j in doc["joints"]:
+        name = j["name"]
+        if name.endswith(("_1", "_2", "_3")) and name[:-2].endswith(("shoulder", "hip")):
+            if name.endswith("_1"):
+                twist = {"left_shoulder": [0, 1, 0], "right_shoulder": [0, -1, 0]}
+                joints.append({"name": name[:-2], "type": "ball", "parent": j["parent"],
+                               "child": name[:-2].replace("shoulder", "upper_arm")
+                               .replace("hip", "thigh"), "origin": j["origin"],
+                               "axis": twist.get(name[:-2], [0, 0, -1])})
+            continue
+        joints.append(j)
+    doc["joints"] = joints
+    doc["links"] = [lk for lk in doc["links"] if "__" not in lk["name"]]
+    for key in ("poses", "collision"):
+        doc.pop(key)
+    doc["skin"].pop("bind_pose")
+    shutil.copyfile(SKIN, folder / SKIN.name)
+    out = folder / "figure_ball.yaml"
+    out.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    return out
+
+
+def test_the_skin_follows_ball_joints_as_it_follows_three_axes(tmp_path: Path,
+                                                               figure: KinematicModel):
+    """The figure with ball shoulders and hips draws the same skin as with three axes, for
+    the quaternion of the three axes' rotation (scipy)."""
+    ball = KinematicModel(load_spec(_ball_figure(tmp_path)))
+    assert ball.nq == figure.dof + 4 and ball.nv == figure.dof
+    names = [j.name for j in figure.spec.actuated_joints]
+    q3 = np.random.default_rng(8).uniform(figure.lower, figure.upper)
+    qb = np.zeros(ball.nq)
+    for j in ball.spec.actuated_joints:
+        idx = ball.q_index(j.name)
+        if j.type is JointType.BALL:
+            r = Rotation.identity()
+            for i in (1, 2, 3):
+                spec = figure.spec.joint(f"{j.name}_{i}")
+                r = r * Rotation.from_rotvec(np.asarray(spec.axis) * q3[names.index(spec.name)])
+            qb[idx] = np.roll(r.as_quat(), 1)
+        else:
+            qb[idx] = q3[names.index(j.name)]
+    a = BoundGeometry(ball).world_vertices(qb)
+    b = BoundGeometry(figure).world_vertices(q3)
+    assert a.shape == b.shape
+    assert np.linalg.norm(a[:, None] - b[None], axis=2).min(axis=1).max() < 1e-9
