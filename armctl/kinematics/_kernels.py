@@ -292,11 +292,18 @@ def fk_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f:
     t = np.empty((3, 4))
     _identity34(t)
     path = paths[f]
-    for k in range(path.shape[0]):
-        j = path[k]
-        if j < 0:
-            break
-        _step_any(t, jd[j], q)
+    if q.shape[0] == jd.shape[0]:  # 1-DOF joints only (a multi-DOF joint has several entries)
+        for k in range(path.shape[0]):
+            j = path[k]
+            if j < 0:
+                break
+            _step(t, jd[j], q[j])
+    else:
+        for k in range(path.shape[0]):
+            j = path[k]
+            if j < 0:
+                break
+            _step_any(t, jd[j], q)
     _apply_offset(t, fd[f], out)
 
 
@@ -308,10 +315,37 @@ def fk(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int)
     return out
 
 
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
+def _fk_jacobian_one(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
+                     pose: np.ndarray, jac: np.ndarray) -> None:
+    """:func:`fk_jacobian_into` for an arm of 1-DOF joints (``q[j]`` is joint ``j``'s value)."""
+    n = jd.shape[0]
+    t = np.empty((3, 4))
+    _identity34(t)
+    path = paths[f]
+    w = np.empty((n, 3))
+    o = np.empty((n, 3))
+    prismatic = np.empty(n)
+    depth = 0
+    for k in range(path.shape[0]):
+        j = path[k]
+        if j < 0:
+            break
+        _step(t, jd[j], q[j])
+        _record_axis(t, jd[j], w, o, k)
+        prismatic[k] = jd[j, 15]
+        depth += 1
+    _apply_offset(t, fd[f], pose)
+    _fill_columns(pose, w, o, path, prismatic, depth, jac)
+
+
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def fk_jacobian_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
                      pose: np.ndarray, jac: np.ndarray) -> None:
     """Pose (4x4) and geometric Jacobian (6 x nv, rows [linear; angular]) of frame ``f``."""
+    if q.shape[0] == jd.shape[0]:  # 1-DOF joints only: the lean path
+        _fk_jacobian_one(q, jd, fd, paths, f, pose, jac)
+        return
     n = 3 * jd.shape[0]
     t = np.empty((3, 4))
     _identity34(t)
@@ -367,6 +401,7 @@ def fk_all(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, anchor: np.ndarray
            fd: np.ndarray) -> np.ndarray:
     """Poses ``(m, 4, 4)`` of every named frame; ``anchor[f]`` is the frame's joint or -1."""
     n = jd.shape[0]
+    one = q.shape[0] == n  # 1-DOF joints only
     world = np.empty((n + 1, 3, 4))  # slot n holds the base (identity)
     _identity34(world[n])
     for j in range(n):
@@ -375,7 +410,10 @@ def fk_all(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, anchor: np.ndarray
         for i in range(3):
             for k in range(4):
                 world[j, i, k] = src[i, k]
-        _step_any(world[j], jd[j], q)
+        if one:
+            _step(world[j], jd[j], q[j])
+        else:
+            _step_any(world[j], jd[j], q)
     out = np.empty((fd.shape[0], 4, 4))
     for f in range(fd.shape[0]):
         a = anchor[f]
@@ -388,14 +426,31 @@ def fk_all(q: np.ndarray, jd: np.ndarray, parent: np.ndarray, anchor: np.ndarray
 # frame's 3x4 offset in the first 12 entries of the last row; ``idx`` (k,): those joints' indices.
 
 
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
+def _chain_one(rows: np.ndarray, idx: np.ndarray, k: int) -> bool:
+    """Whether the ``k`` joints of a chain take the lean 1-DOF path.
+
+    True when they are 1-DOF joints whose entries of ``q`` and of the tangent are at their own
+    joint index (every joint of an arm of 1-DOF joints).
+    """
+    for i in range(k):
+        if rows[i, 16] != 0.0 or rows[i, 20] != idx[i] or rows[i, 21] != idx[i]:
+            return False
+    return True
+
+
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def chain_fk(q: np.ndarray, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Pose ``(4, 4)`` of the frame described by ``rows``/``idx``."""
     t = np.empty((3, 4))
     _identity34(t)
     k = idx.shape[0]
-    for i in range(k):
-        _step_any(t, rows[i], q)
+    if _chain_one(rows, idx, k):
+        for i in range(k):
+            _step(t, rows[i], q[idx[i]])
+    else:
+        for i in range(k):
+            _step_any(t, rows[i], q)
     out = np.empty((4, 4))
     _apply_offset(t, rows[k], out)
     return out
@@ -408,6 +463,15 @@ def chain_fk_jacobian_into(q: np.ndarray, rows: np.ndarray, idx: np.ndarray, pos
     t = np.empty((3, 4))
     _identity34(t)
     k = idx.shape[0]
+    if _chain_one(rows, idx, k):  # 1-DOF joints only: the lean path
+        w1 = np.empty((k, 3))
+        o1 = np.empty((k, 3))
+        for i in range(k):
+            _step(t, rows[i], q[idx[i]])
+            _record_axis(t, rows[i], w1, o1, i)
+        _apply_offset(t, rows[k], pose)
+        _fill_columns(pose, w1, o1, idx, rows[:, 15], k, jac)
+        return
     w = np.empty((3 * k, 3))
     o = np.empty((3 * k, 3))
     pris = np.empty(3 * k)
