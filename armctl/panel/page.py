@@ -125,11 +125,14 @@ class PanelPage:
         self.connection = connection
         self.rate = rate
         self.camera: CameraView | None = None
+        #: Length of the target gizmo's arrows [m] (set by :meth:`start`).
+        self.gizmo_scale = math.nan
         self._server: Any = None
         self._h: dict[str, Any] = {}
         self._frames: dict[str, Any] = {}
         self._ghost_frames: dict[str, Any] = {}
         self._sliders: list[Any] = []
+        self._target: Any = None
         self._stop = threading.Event()
         self._poller: threading.Thread | None = None
         self._ghost_run = 0  # bumped to cancel a running ghost playback
@@ -143,6 +146,11 @@ class PanelPage:
         self.error = ""
 
     # ---- life cycle -------------------------------------------------------------------------
+    @property
+    def target_gizmo(self) -> Any:
+        """The IK target's transform gizmo (viser handle: ``position`` [m], ``wxyz``)."""
+        return self._target
+
     @property
     def url(self) -> str:
         """The page's address (valid after :meth:`start`)."""
@@ -246,8 +254,9 @@ class PanelPage:
                                       receive_shadow=False)
         self._tool = scene.add_frame("/tool", axes_length=0.08 * size, axes_radius=0.003 * size)
         pose = self.arm.fk(q)
+        self.gizmo_scale = 0.15 * size
         self._target = scene.add_transform_controls(
-            "/target", scale=0.15 * size, position=pose[:3, 3],
+            "/target", scale=self.gizmo_scale, position=pose[:3, 3],
             wxyz=matrix_to_quat(pose[:3, :3]))
         self._target.on_update(self._dragged)
 

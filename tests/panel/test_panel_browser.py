@@ -5,7 +5,8 @@ that Stop lands mid-move). The test types a target and presses Move, presses Sto
 records two keyframes, plays them and saves them, and checks each step on the simulated
 servos themselves (their positions through the joint mapping, read from the simulator, not
 from the page or the panel) and in the saved file (read by the keyframe file reader of
-``armctl play``). A screenshot of each step is written to a temporary folder.
+``armctl play``). A screenshot of each step is written to ``$ARMCTL_ARTEFACTS/panel_browser``
+(``.ci/run`` sets it), or to a temporary folder; the folder is printed.
 
 Needs the ``chromium`` and ``chromium-driver`` packages and selenium (the test extra); CI
 installs them. Without them the test fails and says what to install.
@@ -13,6 +14,7 @@ installs them. Without them the test fails and says what to install.
 
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 import time
@@ -26,8 +28,9 @@ import pytest
 from armctl.config.motion import ExitPolicy
 from armctl.motion.keyframe_file import load_keyframes
 from armctl.panel import ControlPanel, Phase
-from armctl.panel.page import PanelPage
+from armctl.panel.page import CameraView, PanelPage
 from armctl.robot import Robot
+from armctl.spatial import quat_to_matrix
 
 pytestmark = pytest.mark.realtime  # wall-clock motion: Stop must land mid-move
 
@@ -119,6 +122,29 @@ class Page:
             el.send_keys(v)
             el.send_keys(self.keys.TAB)
 
+    def drag_on_canvas(self, cam: CameraView, start: np.ndarray, end: np.ndarray) -> None:
+        """Press the mouse on the canvas where ``start`` [m] is seen, drag to ``end``, release.
+
+        The screen positions are the projection of the page's camera (its position, look-at
+        point, z up and vertical field of view) onto the WebGL canvas.
+        """
+        from selenium.webdriver.common.action_chains import ActionChains
+
+        canvas = self.d.find_element(self.by.TAG_NAME, "canvas")
+        w, h = self.d.execute_script(
+            "const r = arguments[0].getBoundingClientRect(); return [r.width, r.height];",
+            canvas)
+        a, b = _project(cam, start, w, h), _project(cam, end, w, h)
+        chain = ActionChains(self.d)
+        chain.move_to_element_with_offset(canvas, round(a[0] - w / 2), round(a[1] - h / 2))
+        chain.click_and_hold().pause(0.2)
+        done = np.zeros(2)
+        for i in range(1, 11):  # in steps, as a hand moves
+            step = np.round(a + (b - a) * i / 10 - (a + done))
+            chain.move_by_offset(int(step[0]), int(step[1])).pause(0.03)
+            done += step
+        chain.release().perform()
+
     def text(self) -> str:
         return str(self.d.find_element(self.by.TAG_NAME, "body").text)
 
@@ -129,9 +155,21 @@ class Page:
         return path
 
 
+def _shot_folder() -> Path:
+    """``$ARMCTL_ARTEFACTS/panel_browser`` (emptied of old shots), else a new temporary folder."""
+    root = os.environ.get("ARMCTL_ARTEFACTS")
+    if not root:
+        return Path(tempfile.mkdtemp(prefix="armctl_panel_screens_"))
+    folder = Path(root) / "panel_browser"
+    folder.mkdir(parents=True, exist_ok=True)
+    for old in folder.glob("*.png"):
+        old.unlink()
+    return folder
+
+
 @pytest.fixture
 def served(tmp_path: Path) -> Iterator[tuple[Robot, ControlPanel, PanelPage, Page]]:
-    shots = Path(tempfile.mkdtemp(prefix="armctl_panel_screens_"))
+    shots = _shot_folder()
     with Robot.open("so101", sim=True, exit_policy=ExitPolicy.HOLD) as robot:
         panel = ControlPanel(robot)
         page = PanelPage(panel, connection="simulated bus", rate=10.0)
@@ -153,6 +191,19 @@ def _servos(robot: Robot) -> np.ndarray:
     return np.array([values[n] for n in robot.arm.joint_names])
 
 
+def _project(cam: CameraView, point: np.ndarray, width: float, height: float) -> np.ndarray:
+    """Where a point [m] is seen on a canvas of ``width`` x ``height`` pixels (pinhole, z up)."""
+    forward = cam.look_at - cam.position
+    forward = forward / np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    d = np.asarray(point) - cam.position
+    f = height / 2.0 / np.tan(cam.fov / 2.0)  # the focal length [px]
+    depth = d @ forward
+    return np.array([width / 2.0 + f * (d @ right) / depth, height / 2.0 - f * (d @ up) / depth])
+
+
 def _orange_box(png: Path) -> tuple[float, float]:
     """Height and width of the box holding the arm's orange links, as fractions of the shot."""
     from PIL import Image
@@ -169,7 +220,7 @@ def _orange_box(png: Path) -> tuple[float, float]:
 
 
 def test_a_person_moves_stops_records_plays_and_saves(served, tmp_path: Path):
-    robot, panel, _page, ui = served
+    robot, panel, page, ui = served
     _until(lambda: "This page is tab" in ui.text(), 60.0, "the page to load and connect")
     _until(lambda: panel.controller is not None, 10.0, "the tab to get control")
 
@@ -181,6 +232,34 @@ def test_a_person_moves_stops_records_plays_and_saves(served, tmp_path: Path):
     _until(framed, 60.0, "the arm to fill a fifth of the picture's height and width")
 
     assert ui.stop_in_view()
+
+    # -- drag the gizmo's blue arrow (its z axis) with the mouse on the WebGL canvas: the
+    # target follows the pointer along that axis, the ghost shows the solution, Move reaches it
+    cam, gizmo = page.camera, page.target_gizmo
+    assert cam is not None
+    p0, axis = np.asarray(gizmo.position), quat_to_matrix(np.asarray(gizmo.wxyz))[:, 2]
+    length = page.gizmo_scale  # its arrows' length [m]
+    ui.drag_on_canvas(cam, p0 + 0.7 * length * axis, p0 + 0.3 * length * axis)
+    _until(lambda: panel.preview is not None, 90.0, "the preview of the dragged target")
+    dragged = np.asarray(gizmo.position)
+    moved = dragged - p0
+    along = float(moved @ axis)  # a pixel of the drag is about a millimetre here
+    assert -0.4 * length - 0.006 < along < -0.4 * length + 0.006, (moved, axis)
+    assert np.linalg.norm(moved - along * axis) < 0.003, (moved, axis)
+    assert panel.preview.ok, panel.preview
+    assert panel.preview.ghost is not None
+    ghost_tool = robot.arm.fk(panel.preview.ghost)[:3, 3]
+    assert np.linalg.norm(ghost_tool - dragged) < 3e-3, (ghost_tool, dragged)
+    typed = [float(el.get_attribute("value")) for el in ui.inputs("xyz [mm]")]
+    np.testing.assert_allclose(typed, dragged * 1000.0, atol=0.11)  # the fields follow
+    _until(lambda: "target: ok" in ui.text(), 30.0, "the page to show the preview")
+    ui.shot("target_dragged")
+    before = panel.outcome
+    ui.press("Move")
+    _until(lambda: panel.outcome not in (None, before), 90.0, "the move to the dragged target")
+    assert panel.outcome.ok, panel.outcome
+    reached = robot.arm.fk(_servos(robot))[:3, 3]
+    assert np.linalg.norm(reached - dragged) < 3e-3, (reached, dragged)
 
     # -- type a target, preview it (ghost), Move: the servos reach it
     q_goal = np.array([0.4, -0.5, 0.7, 0.4, 0.0, 0.0])
