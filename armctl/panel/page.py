@@ -51,6 +51,9 @@ _GHOST_RGB = (40, 120, 220)
 _OBSTACLE_RGB = (107, 123, 140)
 #: Period of the joint table and clearance texts while the arm moves [s].
 _TEXT_PERIOD = 0.5
+#: Keyframes listed in the keyframe tab (the last ones of a longer list).
+_LISTED = 40
+
 #: Vertical field of view of the camera the page opens with [rad].
 FOV = math.radians(50.0)
 
@@ -335,6 +338,10 @@ class PanelPage:
             "Up": lambda c: p.move_keyframe(c, self._kf(), max(self._kf() - 1, 0)),
             "Down": lambda c: p.move_keyframe(c, self._kf(), min(self._kf() + 1, last())),
             "Delete": lambda c: p.delete_keyframe(c, self._kf())})
+        h["rec_rate"] = gui.add_number("recording rate [Hz]", 10.0, min=1.0, max=100.0, step=1.0)
+        self._group(gui, "continuous", {
+            "Start recording": lambda c: p.start_recording(c, float(h["rec_rate"].value)),
+            "Stop recording": p.stop_recording})
         h["kf_dwell"] = gui.add_number("dwell [s]", 0.0, min=0.0, step=0.1)
         h["kf_time"] = gui.add_text("time [s]", "", hint="time stamp; blank: none (a program "
                                     "plays by its time stamps when every keyframe has one)")
@@ -518,7 +525,8 @@ class PanelPage:
         lines = [f"control: **{p.label(holder)}**" + (f" (also watching: {', '.join(others)})"
                                                       if others else ""),
                  f"arm: **{phase.value}**" + (" (paused)" if ctl.paused else "")
-                 + f", speed override x{ctl.speed:.2f}"]
+                 + f", speed override x{ctl.speed:.2f}"
+                 + (", **recording**" if p.recording else "")]
         if preview is not None:
             lines.append(f"target: **{preview.kind.value}**: {preview.message}")
         outcome = p.outcome
@@ -530,7 +538,11 @@ class PanelPage:
         program = p.program
         if program.keyframes:
             rows = ["| # | name | dwell | time |", "|---|---|---:|---:|"]
-            for i, kf in enumerate(program.keyframes):
+            n = len(program.keyframes)
+            first = max(n - _LISTED, 0)  # a long recording: its last keyframes
+            if first:
+                rows.append(f"| ... | {first} more | | |")
+            for i, kf in enumerate(program.keyframes[first:], start=first):
                 t = "-" if kf.time is None else f"{kf.time:.2f}"
                 rows.append(f"| {i} | {kf.label} | {kf.dwell:.2f} | {t} |")
             self._set_text("kf_list", "\n".join(rows))

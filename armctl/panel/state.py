@@ -55,7 +55,7 @@ from armctl.panel.errors import ControlDenied, PanelBusy
 from armctl.robot.errors import MotionStopped
 from armctl.robot.executor import CycleInfo
 from armctl.robot.session import Robot
-from armctl.robot.teach import ExistingFile, check_output, taught_joints
+from armctl.robot.teach import ExistingFile, TeachSession, check_output, taught_joints
 from armctl.typing import Array
 
 __all__ = ["ControlPanel", "Outcome", "Phase", "Preview", "PreviewKind", "classify"]
@@ -174,6 +174,8 @@ class ControlPanel:
         self._program = KeyframeProgram(arm.name, taught_joints(arm), (),
                                         robot.calibration_hash(), angle_unit=AngleUnit.DEG)
         self._interpolation = Interpolation.MIN_JERK
+        self._recorder: threading.Thread | None = None
+        self._end_recording = threading.Event()
         with self._bus:
             self._q = robot.joints()
 
@@ -226,6 +228,7 @@ class ControlPanel:
             self._clients.pop(client, None)
             if self._controller == client:
                 self._controller = None
+                self._end_recording.set()  # a recording ends with its recorder's control
         self._changed()
 
     def label(self, client: str | None) -> str:
@@ -263,6 +266,8 @@ class ControlPanel:
                     raise ControlDenied(f"{self.label(holder)} runs a {self._phase.value} "
                                         "motion: wait for it to end or press Stop, then take "
                                         "control", client, holder)
+            if holder != client:
+                self._end_recording.set()  # a recording ends with its recorder's control
             self._controller = client
         self._changed(f"{self.label(client)} has control")
 
@@ -272,6 +277,7 @@ class ControlPanel:
             if self._controller != client:
                 return
             self._controller = None
+            self._end_recording.set()
         self._changed(f"{self.label(client)} released control")
 
     def _require(self, client: str, what: str) -> None:
@@ -561,6 +567,7 @@ class ControlPanel:
     def _edit(self, client: str, what: str, edit: Callable[[KeyframeProgram], KeyframeProgram],
               message: str) -> KeyframeProgram:
         self._require(client, what)
+        self._require_not_recording(what)
         with self._lock:
             program = edit(self._program)
             self._program = program
@@ -588,6 +595,103 @@ class ControlPanel:
 
         program = self._edit(client, "record a keyframe", edit, "recorded the present pose")
         return program.keyframes[-1]
+
+    # ---- continuous recording -------------------------------------------------------------
+    @property
+    def recording(self) -> bool:
+        """Whether a continuous recording runs."""
+        with self._lock:
+            return self._recorder is not None and self._recorder.is_alive()
+
+    def _require_not_recording(self, what: str) -> None:
+        if self.recording:
+            raise PanelBusy(f"cannot {what} while a continuous recording runs: stop the "
+                            "recording first", "recording")
+
+    def start_recording(self, client: str, rate_hz: float = 10.0,
+                        duration: float | None = None) -> None:
+        """Record the arm's joints at ``rate_hz`` with time stamps, as ``armctl teach`` does.
+
+        Samples are appended to the keyframe list as joint keyframes with time stamps [s] (the
+        measured sampling times on the robot's clock, continuing after the list's last time
+        stamp), while the arm is moved from the page (Move, sliders, the gizmo) or not at all.
+        The recording ends on :meth:`stop_recording`, after ``duration``, or when its client
+        loses control; the list is saved with :meth:`save` (the keyframe file of ``teach``).
+
+        Args:
+            client: The client asking (needs control).
+            rate_hz: Sampling rate [Hz] (1 to 100).
+            duration: End after this long [s] (``None``: until stopped).
+
+        Raises:
+            ControlDenied: ``client`` does not have control.
+            PanelBusy: A recording runs already.
+            InputError: A rate or duration out of range.
+        """
+        self._require(client, "start a recording")
+        TeachSession.check_recording(rate_hz, duration)
+        with self._lock:
+            if self._recorder is not None and self._recorder.is_alive():
+                raise PanelBusy("a continuous recording runs already: stop it first",
+                                "recording")
+            self._end_recording = threading.Event()
+            self._recorder = threading.Thread(
+                target=self._record_samples, args=(rate_hz, duration, self._end_recording),
+                name="armctl-panel-recording", daemon=True)
+            self._recorder.start()
+        self._changed(f"recording at {rate_hz:g} Hz")
+
+    def stop_recording(self, client: str | None = None, timeout: float = 5.0) -> int:
+        """End a continuous recording (nothing when none runs).
+
+        Args:
+            client: The client asking (needs control); ``None`` for the server itself.
+            timeout: Longest wait for the recording to end [s].
+
+        Returns:
+            The number of keyframes in the list afterwards.
+        """
+        if client is not None:
+            self._require(client, "stop the recording")
+        with self._lock:
+            recorder = self._recorder
+            self._end_recording.set()
+        if recorder is not None:
+            recorder.join(timeout)
+        return len(self.program.keyframes)
+
+    def _record_samples(self, rate_hz: float, duration: float | None,
+                        end: threading.Event) -> None:
+        clock = self.robot.clock
+        dt = 1.0 / rate_hz
+        arm = self.robot.arm
+        with self._lock:
+            stamps = [kf.time for kf in self._program.keyframes if kf.time is not None]
+        offset = stamps[-1] + dt if stamps else 0.0
+        t0 = clock.now()
+        k = n = 0
+        shown = t0
+        while not end.is_set():
+            if duration is not None and k * dt > duration + 1e-9:
+                break
+            deadline = t0 + k * dt
+            while not end.is_set() and clock.now() < deadline:
+                clock.sleep_until(min(deadline, clock.now() + 0.05))
+            if end.is_set():
+                break
+            t = clock.now() - t0
+            q = self.refresh()  # the bus, or the running motion's last measured cycle
+            with self._lock:
+                values = tuple(float(q[arm.joint_index(name)])
+                               for name in self._program.joints)
+                self._program = self._program.append(
+                    Keyframe(q=values, time=round(offset + t, 4)))
+            n += 1
+            if clock.now() - shown >= 0.5:
+                shown = clock.now()
+                self._changed()
+            k = max(k + 1, int((clock.now() - t0) / dt))  # no bursts after a delay
+        self._changed(f"recorded {n} samples")
 
     def rename(self, client: str, i: int, name: str) -> None:
         """Rename keyframe ``i``."""
@@ -725,6 +829,7 @@ class ControlPanel:
     def load(self, client: str, path: str | Path) -> KeyframeProgram:
         """Replace the keyframe list by a keyframe file's (checked for this arm)."""
         self._require(client, "load keyframes")
+        self._require_not_recording("load keyframes")
         program = load_keyframes(Path(path).expanduser(), self.robot.arm)
         with self._lock:
             self._program = program

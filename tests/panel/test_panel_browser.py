@@ -270,8 +270,9 @@ def test_a_person_moves_stops_records_plays_and_saves(served, tmp_path: Path):
     assert panel.preview.ok, panel.preview
     _until(lambda: "target: ok" in ui.text(), 30.0, "the page to show the preview")
     ui.shot("target_previewed")
+    before = panel.outcome
     ui.press("Move")
-    _until(lambda: panel.outcome is not None, 90.0, "the move to end")
+    _until(lambda: panel.outcome not in (None, before), 90.0, "the move to end")
     assert panel.outcome.ok, panel.outcome
     reached = robot.arm.fk(_servos(robot))[:3, 3]
     assert np.linalg.norm(reached - target) < 3e-3, (reached, target)
@@ -344,3 +345,17 @@ def test_a_person_moves_stops_records_plays_and_saves(served, tmp_path: Path):
     _until(lambda: "exists already" in ui.text(), 30.0, "the refusal to overwrite")
     assert out.read_text() == text
     ui.shot("saved")
+
+    # -- continuous recording from the page: time-stamped samples of the arm at rest
+    n = len(panel.program.keyframes)
+    ui.press("Start recording")
+    _until(lambda: panel.recording, 30.0, "the recording to start")
+    _until(lambda: len(panel.program.keyframes) >= n + 3, 30.0, "three samples")
+    _until(lambda: "recording" in ui.text(), 30.0, "the page to say it records")
+    ui.shot("recording")
+    ui.press("Stop recording")
+    _until(lambda: not panel.recording, 30.0, "the recording to end")
+    samples = panel.program.keyframes[n:]
+    assert all(kf.time is not None for kf in samples)
+    assert np.all(np.diff([kf.time for kf in samples]) > 0)
+    np.testing.assert_allclose(samples[-1].q, _servos(robot)[idx], atol=0.004)

@@ -8,12 +8,13 @@ edited, played, saved in the keyframe file format and read back by the file read
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from armctl.clock import SimulatedClock
+from armctl.clock import SimulatedClock, WallClock
 from armctl.config.motion import ExitPolicy
 from armctl.errors import InputError
 from armctl.ik.errors import IKFailedError
@@ -248,3 +249,97 @@ def test_pause_resume_and_speed_go_to_the_robots_motion_control(robot):
         panel.set_speed("a", 0.0)
     with pytest.raises(ControlDenied):
         panel.pause("b")
+
+
+def test_continuous_recording_in_simulated_time():
+    """Who records, what is refused meanwhile, the time stamps, and the samples on the bus."""
+    clock = SimulatedClock()
+    with Robot.open("so101", sim=True, clock=clock, exit_policy=ExitPolicy.HOLD) as robot:
+        panel = _panel(robot)
+        with pytest.raises(ControlDenied, match="a has control"):
+            panel.start_recording("b")
+        with pytest.raises(InputError, match="outside 1 to 100 Hz"):
+            panel.start_recording("a", rate_hz=500.0)
+        panel.start_recording("a", rate_hz=10.0, duration=1.0)
+        assert _ended(panel)
+        program = panel.program
+        assert len(program.keyframes) == 11  # 0 to 1 s at 10 Hz, both ends
+        times = [kf.time for kf in program.keyframes]
+        np.testing.assert_allclose(times, np.arange(11) * 0.1, atol=1e-9)
+        bus = robot.bus.read_joints()
+        idx = [robot.arm.joint_index(n) for n in program.joints]
+        for kf in program.keyframes:
+            np.testing.assert_allclose(kf.q, bus[idx], atol=1e-3)  # the arm did not move
+        # a second recording continues the time stamps after the last one
+        panel.start_recording("a", rate_hz=20.0, duration=0.5)
+        assert _ended(panel)
+        later = [kf.time for kf in panel.program.keyframes[11:]]
+        assert len(later) == 11 and later[0] == pytest.approx(1.05)
+        assert np.all(np.diff(later) > 0)
+
+
+def _ended(panel: ControlPanel, timeout: float = 30.0) -> bool:
+    """Wait for a recording with a duration to end (simulated time: at once, in real time)."""
+    end = time.monotonic() + timeout
+    while panel.recording and time.monotonic() < end:
+        time.sleep(0.01)
+    return not panel.recording
+
+
+def test_a_running_recording_refuses_edits_and_ends_with_control(robot):
+    panel = _panel(robot)
+    panel.start_recording("a", rate_hz=5.0)
+    try:
+        assert panel.recording
+        with pytest.raises(PanelBusy, match="stop the recording first"):
+            panel.record("a")
+        with pytest.raises(PanelBusy, match="stop the recording first"):
+            panel.load("a", "any.yaml")
+        with pytest.raises(PanelBusy, match="runs already"):
+            panel.start_recording("a")
+        with pytest.raises(ControlDenied):
+            panel.stop_recording("b")
+        panel.take_control("b", force=True)  # a handover ends the recording of a
+        assert _ended(panel, 10.0)
+    finally:
+        panel.stop_recording()
+
+
+@pytest.mark.realtime  # the recording samples a motion that runs in its own thread
+def test_recording_a_move_saves_a_timed_keyframe_file(tmp_path: Path):
+    """Recorded while Move runs (wall-clock time): the samples go from the start to the goal."""
+    with Robot.open("so101", sim=True, clock=WallClock(), exit_policy=ExitPolicy.HOLD) as robot:
+        _record_a_move(robot, tmp_path)
+
+
+def _record_a_move(robot: Robot, tmp_path: Path) -> None:
+    panel = _panel(robot)
+    start = robot.bus.read_joints()
+    goal = start.copy()
+    goal[0] += 0.4
+    panel.set_speed("a", 0.5)  # a move of a second or two
+    assert panel.preview_joints("a", goal).ok
+    panel.start_recording("a", rate_hz=20.0)
+    panel.move("a")
+    assert panel.wait(60.0) and panel.outcome is not None and panel.outcome.ok
+    end = robot.bus.read_joints()
+    n_moved = len(panel.program.keyframes)
+    deadline = time.monotonic() + 30.0
+    while len(panel.program.keyframes) < n_moved + 3 and time.monotonic() < deadline:
+        time.sleep(0.02)  # a few samples at rest at the goal
+    panel.stop_recording("a")
+    assert not panel.recording
+    kfs = panel.program.keyframes
+    i0 = robot.arm.joint_index(panel.program.joints[0])
+    first = np.array([kf.q[0] for kf in kfs])
+    assert abs(first[0] - start[i0]) < 0.02 and abs(first[-1] - end[i0]) < 2e-3
+    between = (first > start[i0] + 0.05) & (first < goal[i0] - 0.05)
+    assert between.sum() >= 3, first  # it sampled the arm on its way
+    assert np.all(np.diff([kf.time for kf in kfs]) > 0)
+    out = panel.save("a", tmp_path / "recorded.yaml")
+    back = load_keyframes(out, robot.arm)  # the keyframe reader of armctl play
+    assert len(back.keyframes) == len(kfs)
+    np.testing.assert_allclose([kf.time for kf in back.keyframes], [kf.time for kf in kfs],
+                               atol=1e-4)
+    np.testing.assert_allclose([kf.q for kf in back.keyframes], [kf.q for kf in kfs],
+                               atol=1e-6)
