@@ -348,6 +348,9 @@ class PanelPage:
         self._group(gui, "selected", {
             "Set times": self._set_times,
             "Preview keyframe": lambda c: self._show_preview(p.preview_keyframe(c, self._kf()))})
+        self._group(gui, "pose keyframe", {
+            "Pose to target": self._pose_to_fields,
+            "Set pose from target": self._pose_from_fields})
         h["kf_interp"] = gui.add_dropdown("interpolation", [i.value for i in Interpolation],
                                           initial_value=p.interpolation.value)
         h["kf_interp"].on_update(lambda e: self._do(e, lambda c: p.set_interpolation(
@@ -370,6 +373,41 @@ class PanelPage:
 
     def _kf(self) -> int:
         return int(self._h["kf_index"].value)
+
+    def _pose_to_fields(self, client: str) -> None:
+        """Show the selected pose keyframe's pose in the Target tab (mm, deg) and the gizmo."""
+        i = self._kf()
+        kfs = self.panel.program.keyframes
+        if not 0 <= i < len(kfs) or kfs[i].pose is None:
+            from armctl.errors import InputError
+
+            raise InputError(f"keyframe {i} is not a pose keyframe: pick one with a pose")
+        pose = np.asarray(kfs[i].pose)
+        with self._lock:
+            self._syncing = True
+            try:
+                self._h["xyz"].value = tuple(np.round(pose[:3, 3] * 1000.0, 1))
+                self._h["rpy"].value = tuple(np.round(np.degrees(matrix_to_rpy(pose[:3, :3])),
+                                                      1))
+                self._h["oriented"].value = bool(kfs[i].orientation)
+                self._target.position = pose[:3, 3]
+                self._target.wxyz = matrix_to_quat(pose[:3, :3])
+            finally:
+                self._syncing = False
+
+    def _pose_from_fields(self, client: str) -> None:
+        """Give the selected pose keyframe the Target tab's pose (re-solved by the Robot)."""
+        xyz = np.asarray(self._h["xyz"].value, dtype=float) / 1000.0
+        rpy = np.radians(np.asarray(self._h["rpy"].value, dtype=float))
+        pose = make_transform(rpy_to_matrix(rpy), xyz)
+        try:
+            preview = self.panel.set_keyframe_pose(client, self._kf(), pose,
+                                                   bool(self._h["oriented"].value))
+        except ArmctlError:
+            if self.panel.preview is not None:  # the refused pose and the reason
+                self._show_preview(self.panel.preview)
+            raise
+        self._show_preview(preview)
 
     def _set_times(self, client: str) -> None:
         text = str(self._h["kf_time"].value).strip()

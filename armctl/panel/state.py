@@ -773,6 +773,47 @@ class ControlPanel:
             q[self._grippers] = kf.gripper
         return q
 
+    def set_keyframe_pose(self, client: str, i: int, pose: npt.ArrayLike,
+                          orientation: bool = True) -> Preview:
+        """Give pose keyframe ``i`` a new tool pose, re-solved by the Robot first.
+
+        The new pose is previewed as a target from the present position (the Robot's IK,
+        limits and collision checks, as :meth:`preview_pose`); only a pose the Robot accepts
+        replaces the keyframe's, so the list never holds a pose the page refused.
+
+        Args:
+            client: The client asking (needs control).
+            i: The keyframe's index.
+            pose: ``(4, 4)`` tool pose in the base frame [m].
+            orientation: Whether the keyframe constrains the orientation too.
+
+        Returns:
+            The accepted preview (its ghost is the solution).
+
+        Raises:
+            InputError: Keyframe ``i`` is a joint keyframe, or the Robot refuses the pose (the
+                message is its reason; the preview shows it).
+        """
+        self._require(client, "edit a keyframe")
+        self._require_not_recording("edit a keyframe")
+        kf = self.program.keyframes[self._index(i)]
+        if kf.pose is None:
+            raise InputError(f"keyframe {i} ({kf.label}) holds joint values, not a pose: "
+                             "move the arm there and Record, or delete it")
+        target = np.array(pose, dtype=float)
+        preview = self.preview_pose(client, target, orientation)
+        if not preview.ok:
+            raise InputError(f"keyframe {i} ({kf.label}) keeps its pose: the new one is "
+                             f"{preview.kind.value}: {preview.message}")
+
+        def edit(p: KeyframeProgram) -> KeyframeProgram:
+            kfs = list(p.keyframes)
+            kfs[i] = replace(kfs[i], pose=target, orientation=orientation)
+            return replace(p, keyframes=tuple(kfs))
+
+        self._edit(client, "edit a keyframe", edit, f"keyframe {i} has a new pose")
+        return preview
+
     def preview_keyframe(self, client: str, i: int) -> Preview:
         """Preview a move to keyframe ``i`` (Move then goes there)."""
         kf = self.program.keyframes[self._index(i)]

@@ -343,3 +343,35 @@ def _record_a_move(robot: Robot, tmp_path: Path) -> None:
                                atol=1e-4)
     np.testing.assert_allclose([kf.q for kf in back.keyframes], [kf.q for kf in kfs],
                                atol=1e-6)
+
+
+def test_a_loaded_pose_keyframe_is_edited_through_the_robots_checks(robot, tmp_path: Path):
+    path = tmp_path / "poses.yaml"
+    path.write_text(
+        "armctl_keyframes: 1\narm: so101\nunits: {angle: deg, length: m}\n"
+        "joints: [shoulder_pan, shoulder_lift, elbow_flex, wrist_flex, wrist_roll]\n"
+        "keyframes:\n- {name: start, q: [0, -30, 60, 20, 0]}\n"
+        "- {name: above, pose: {xyz: [0.22, 0.0, 0.12]}}\n")
+    panel = _panel(robot)
+    panel.load("a", path)
+    new = robot.arm.fk(Q_GOAL)  # a pose the arm reaches (FK of a valid configuration)
+    with pytest.raises(ControlDenied):
+        panel.set_keyframe_pose("b", 1, new, orientation=False)
+    with pytest.raises(InputError, match="holds joint values, not a pose"):
+        panel.set_keyframe_pose("a", 0, new)
+    preview = panel.set_keyframe_pose("a", 1, new, orientation=False)
+    assert preview.ok and preview.ghost is not None
+    assert np.linalg.norm(robot.arm.fk(preview.ghost)[:3, 3] - new[:3, 3]) < 1e-3
+    kf = panel.program.keyframes[1]
+    np.testing.assert_allclose(kf.pose, new)
+    assert kf.orientation is False
+    far = new.copy()
+    far[:3, 3] = [2.0, 0.0, 0.5]  # metres beyond the reach
+    with pytest.raises(InputError, match="keeps its pose: the new one is unreachable"):
+        panel.set_keyframe_pose("a", 1, far, orientation=False)
+    assert panel.preview is not None and panel.preview.kind is PreviewKind.UNREACHABLE
+    np.testing.assert_allclose(panel.program.keyframes[1].pose, new)  # unchanged
+    out = panel.save("a", tmp_path / "edited.yaml")
+    back = load_keyframes(out, robot.arm)  # the file reader of armctl play
+    np.testing.assert_allclose(back.keyframes[1].pose[:3, 3], new[:3, 3], atol=1e-6)
+    assert back.keyframes[1].orientation is False
