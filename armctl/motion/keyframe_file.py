@@ -17,7 +17,9 @@ rotary joints and ``units.length`` (``m`` or ``mm``) for prismatic ones; ``gripp
 unit of the arm's gripper joint (an angle for a rotary gripper, a length for a prismatic one);
 ``pose`` gives ``xyz`` (in ``units.length``) and ``rpy`` (in ``units.angle``) or ``quat``
 ``[w, x, y, z]`` (with neither, only the position counts, the natural choice for 5-joint arms);
-``dwell`` and ``time`` are in seconds. Any angle or length may also be written as a string with
+``dwell`` and ``time`` are in seconds. An optional ``interpolation`` (``linear``, ``cubic`` or
+``min-jerk``) sets how the segment arriving at that keyframe is joined (without it: the
+playback's interpolation). Any angle or length may also be written as a string with
 its unit (``"15 deg"``, ``"0.3 rad"``, ``"12 mm"``, ``"0.012 m"``).
 """
 
@@ -37,6 +39,7 @@ from armctl.config.schema import JointRole, JointType
 from armctl.config.source import Section, load_yaml, parse_yaml
 from armctl.errors import InputError
 from armctl.kinematics.model import KinematicModel
+from armctl.motion.interpolate import Interpolation
 from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram, LengthUnit
 from armctl.spatial import make_transform, matrix_to_rpy, quat_to_matrix, rpy_to_matrix
 
@@ -46,7 +49,7 @@ __all__ = ["FORMAT_VERSION", "load_keyframes", "parse_keyframes", "save_keyframe
 FORMAT_VERSION = 1
 _TOP_REQUIRED = ("armctl_keyframes", "arm", "joints", "keyframes")
 _TOP_OPTIONAL = ("units", "calibration", "frame", "description")
-_KF_KEYS = ("name", "q", "pose", "dwell", "gripper", "time")
+_KF_KEYS = ("name", "q", "pose", "dwell", "gripper", "time", "interpolation")
 _NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 _ANGLE_TEXT = re.compile(rf"^\s*{_NUMBER}\s*(deg|rad)\s*$")
 _LENGTH_TEXT = re.compile(rf"^\s*{_NUMBER}\s*(mm|m)\s*$")
@@ -223,12 +226,21 @@ def _keyframe(sec: Section, rotary: list[bool], grip_rotary: bool, units: _Units
         pose = _pose(psec, units)
         orientation = psec.has("rpy") or psec.has("quat")
     time = sec.number("time", nonnegative=True) if sec.has("time") else None
+    interpolation = None
+    if sec.has("interpolation"):
+        raw = sec.value["interpolation"]
+        kinds = [k.value for k in Interpolation]
+        if raw not in kinds:
+            raise sec.error(f"unknown interpolation {raw!r}", "interpolation",
+                            fix=f"write one of {', '.join(kinds)}, or leave the key out (the "
+                                "playback's interpolation)")
+        interpolation = Interpolation(raw)
     return Keyframe(
         q=q, pose=pose, orientation=orientation, name=sec.string("name", required=False),
         dwell=sec.number("dwell", 0.0, nonnegative=True),
         gripper=(units.to_si(sec, sec.value["gripper"], grip_rotary, "gripper")
                  if sec.has("gripper") else None),
-        time=time, where=sec.where(),
+        time=time, interpolation=interpolation, where=sec.where(),
     )
 
 
@@ -290,6 +302,8 @@ def to_document(program: KeyframeProgram, model: KinematicModel) -> dict[str, An
             item["gripper"] = units.out(kf.gripper, grip_rotary)
         if kf.time is not None:
             item["time"] = _num(kf.time, 4)
+        if kf.interpolation is not None:
+            item["interpolation"] = kf.interpolation.value
         items.append(item)
     doc["keyframes"] = items
     return doc

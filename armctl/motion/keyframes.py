@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 from enum import Enum
 
 from armctl.errors import InputError, KeyPath
+from armctl.motion.interpolate import Interpolation
 from armctl.typing import Array
 
 __all__ = ["AngleUnit", "Keyframe", "KeyframeProgram", "LengthUnit"]
@@ -47,6 +48,9 @@ class Keyframe:
         dwell: Time to stay at this keyframe [s]; > 0 makes the motion stop here.
         gripper: Gripper position to command at this keyframe [rad]/[m] (``None``: unchanged).
         time: Recording time stamp [s] (continuous recordings), or ``None``.
+        interpolation: How the segment that arrives at this keyframe is interpolated
+            (``None``: the program's playback option). Where it changes the arm rests at the
+            keyframe between the two kinds.
         where: Where the keyframe was read from, for error messages.
     """
 
@@ -57,6 +61,7 @@ class Keyframe:
     dwell: float = 0.0
     gripper: float | None = None
     time: float | None = None
+    interpolation: Interpolation | None = None
     where: KeyPath = field(default=KeyPath(), compare=False)
 
     def __post_init__(self) -> None:

@@ -136,6 +136,7 @@ class _Stop:
     gripper: float | None
     time: float | None
     stop: bool
+    interpolation: Interpolation | None = None  # of the segment arriving here
 
 
 def resolve_keyframes(program: KeyframeProgram, model: KinematicModel, q_start: npt.ArrayLike,
@@ -212,7 +213,8 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
         _check_keyframe(program, model, k, kf, q)
     grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
     stops = [_Stop(q, kf.label if kf.name else f"#{k}", kf.dwell, kf.gripper, kf.time,
-                   not options.blend or kf.dwell > 0 or kf.gripper is not None)
+                   not options.blend or kf.dwell > 0 or kf.gripper is not None,
+                   kf.interpolation)
              for k, (q, kf) in enumerate(zip(qs, program.keyframes, strict=False))]
     if options.reverse:
         stops = stops[::-1]
@@ -221,7 +223,7 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
         ends = range(len(stops) - 1, len(seq) - 1, len(stops))
         for i in [*ends, *(e + 1 for e in ends)]:
             seq[i] = _Stop(seq[i].q, seq[i].name, seq[i].dwell, seq[i].gripper, seq[i].time,
-                           True)
+                           True, seq[i].interpolation)
     timed = options.timed(program)
     for st in seq:
         limits.check_position(st.q, f"keyframe {st.name}")
@@ -265,8 +267,9 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
     if timed:
         hint = f"lower the speed factor (now {options.speed:g})"
     try:
-        n = check_trajectory(traj, limits, check_jerk=options.interpolation is not
-                             Interpolation.CUBIC, hint=hint)
+        kinds = {options.interpolation, *(kf.interpolation for kf in program.keyframes)}
+        n = check_trajectory(traj, limits, check_jerk=Interpolation.CUBIC not in kinds,
+                             hint=hint)
     except LimitViolation as exc:
         if timed and exc.kind in ("velocity", "acceleration", "jerk"):
             best = _fastest_recorded_speed(traj, limits, options.speed, exc)
@@ -387,11 +390,23 @@ def _emit_run(run: list[_Stop], limits: MotionLimits, options: PlaybackOptions, 
             durations = stamps / options.speed
         else:  # from the end of one loop back to its start: no recorded timing
             limits = limits.scaled(min(options.speed, 1.0))
-    traj, knots = plan_run(q, limits, options.interpolation, durations)
-    for s, t in zip(run[1:], knots[1:], strict=False):
-        waypoints.append(Waypoint(clock + t, s.q, s.name, s.stop))
-    parts.append(traj)
-    return clock + traj.duration, run[-1].q
+    # The segment into a keyframe takes that keyframe's interpolation (else the option's);
+    # consecutive segments of one kind form one run, at rest where the kind changes.
+    kinds = [s.interpolation or options.interpolation for s in run[1:]]
+    a = 0
+    while a < len(kinds):
+        b = a
+        while b + 1 < len(kinds) and kinds[b + 1] is kinds[a]:
+            b += 1
+        traj, knots = plan_run(q[a:b + 2], limits, kinds[a],
+                               None if durations is None else durations[a:b + 1])
+        for k, (s, t) in enumerate(zip(run[a + 1:b + 2], knots[1:], strict=False)):
+            at_rest = s.stop or (k == b - a and b + 1 < len(kinds))  # the kind changes here
+            waypoints.append(Waypoint(clock + t, s.q, s.name, at_rest))
+        parts.append(traj)
+        clock += traj.duration
+        a = b + 1
+    return clock, run[-1].q
 
 
 def _gripper_move(q: Array, value: float, grip: list[int], limits: MotionLimits) -> Trajectory:

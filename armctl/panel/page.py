@@ -100,6 +100,10 @@ def reach_camera(geo: BoundGeometry, lower: Array, upper: Array, q: Array,
     return CameraView(centre + distance * direction, centre, radius, fov)
 
 
+#: The keyframe interpolation choice that means "the program's interpolation".
+_AS_PROGRAM = "as the program"
+
+
 def _unit(joint_type: JointType) -> tuple[str, float]:
     """The page's unit of a joint and the factor from SI: degrees, or millimetres."""
     return ("mm", 1000.0) if joint_type is JointType.PRISMATIC else ("deg", 180.0 / math.pi)
@@ -345,8 +349,16 @@ class PanelPage:
         h["kf_dwell"] = gui.add_number("dwell [s]", 0.0, min=0.0, step=0.1)
         h["kf_time"] = gui.add_text("time [s]", "", hint="time stamp; blank: none (a program "
                                     "plays by its time stamps when every keyframe has one)")
+        h["kf_kind"] = gui.add_dropdown("its interpolation",
+                                        [_AS_PROGRAM, *(i.value for i in Interpolation)],
+                                        initial_value=_AS_PROGRAM,
+                                        hint="how the segment arriving at this keyframe is "
+                                             "joined; where it changes the arm rests")
         self._group(gui, "selected", {
             "Set times": self._set_times,
+            "Set interpolation": lambda c: p.set_keyframe_interpolation(
+                c, self._kf(), None if h["kf_kind"].value == _AS_PROGRAM
+                else Interpolation(h["kf_kind"].value)),
             "Preview keyframe": lambda c: self._show_preview(p.preview_keyframe(c, self._kf()))})
         self._group(gui, "pose keyframe", {
             "Pose to target": self._pose_to_fields,
@@ -575,14 +587,17 @@ class PanelPage:
         self._set_text("status", "\n\n".join(lines))
         program = p.program
         if program.keyframes:
-            rows = ["| # | name | dwell | time |", "|---|---|---:|---:|"]
+            rows = ["| # | name | kind | dwell | time | into it |",
+                    "|---|---|---|---:|---:|---|"]
             n = len(program.keyframes)
             first = max(n - _LISTED, 0)  # a long recording: its last keyframes
             if first:
-                rows.append(f"| ... | {first} more | | |")
+                rows.append(f"| ... | {first} more | | | | |")
             for i, kf in enumerate(program.keyframes[first:], start=first):
                 t = "-" if kf.time is None else f"{kf.time:.2f}"
-                rows.append(f"| {i} | {kf.label} | {kf.dwell:.2f} | {t} |")
+                kind = "joints" if kf.pose is None else "pose"
+                into = "-" if kf.interpolation is None else kf.interpolation.value
+                rows.append(f"| {i} | {kf.label} | {kind} | {kf.dwell:.2f} | {t} | {into} |")
             self._set_text("kf_list", "\n".join(rows))
         else:
             self._set_text("kf_list", "no keyframes yet")

@@ -750,6 +750,21 @@ class ControlPanel:
 
         self._edit(client, "set a keyframe's times", edit, f"keyframe {i} timing set")
 
+    def set_keyframe_interpolation(self, client: str, i: int,
+                                   interpolation: Interpolation | None) -> None:
+        """How the segment arriving at keyframe ``i`` is joined (``None``: the program's)."""
+        self._index(i)
+        kind = None if interpolation is None else Interpolation(interpolation)
+
+        def edit(p: KeyframeProgram) -> KeyframeProgram:
+            kfs = list(p.keyframes)
+            kfs[i] = replace(kfs[i], interpolation=kind)
+            return replace(p, keyframes=tuple(kfs))
+
+        said = "as the program" if kind is None else kind.value
+        self._edit(client, "set a keyframe's interpolation", edit,
+                   f"keyframe {i} interpolation: {said}")
+
     def set_interpolation(self, client: str, interpolation: Interpolation) -> None:
         """How playback joins the keyframes."""
         self._require(client, "set the interpolation")

@@ -11,7 +11,14 @@ import pytest
 
 from armctl.arm import Arm, load_arm
 from armctl.errors import ConfigError
-from armctl.motion import AngleUnit, Keyframe, KeyframeProgram, load_keyframes, save_keyframes
+from armctl.motion import (
+    AngleUnit,
+    Interpolation,
+    Keyframe,
+    KeyframeProgram,
+    load_keyframes,
+    save_keyframes,
+)
 from armctl.motion.keyframe_file import parse_keyframes
 from armctl.spatial import make_transform, rpy_to_matrix
 
@@ -61,6 +68,8 @@ def test_degrees_apply_to_rotary_joints_only(arm3g: Arm) -> None:
      "times must increase"),
     ("keyframes:\n  - {pose: {xyz: [0, 0], rpy: [0, 0, 0]}}\n", "keyframes[0].pose.xyz",
      "list of 3 numbers"),
+    ("keyframes:\n  - {q: [0, 0, 0]}\n  - {q: [0, 0, 1], interpolation: spline}\n",
+     "keyframes[1].interpolation", "unknown interpolation 'spline'"),
 ])
 def test_errors_name_file_key_and_line(arm3g: Arm, tmp_path: Path, body: str, where: str,
                                        message: str) -> None:
@@ -99,3 +108,21 @@ def test_failed_write_keeps_the_previous_file(arm3g: Arm, tmp_path: Path,
         save_keyframes(prog.append(Keyframe(q=(1.0, 1.0, 1.0))), path, arm3g)
     assert path.read_text() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["prog.yaml"]  # no temp file left
+
+
+def test_per_keyframe_interpolation_round_trips_and_is_optional(arm3g: Arm,
+                                                                tmp_path: Path) -> None:
+    kfs = (Keyframe(q=(0.0, 0.0, 0.0)),
+           Keyframe(q=(0.3, 0.1, 0.0), interpolation=Interpolation.LINEAR),
+           Keyframe(q=(0.5, 0.2, 0.1), interpolation=Interpolation.CUBIC))
+    prog = KeyframeProgram("arm3g", ("j1", "j2", "j3"), kfs)
+    path = save_keyframes(prog, tmp_path / "interp.yaml", arm3g)
+    text = path.read_text()
+    assert "interpolation: linear" in text and "interpolation: cubic" in text
+    back = load_keyframes(path, arm3g)
+    assert [k.interpolation for k in back.keyframes] == [None, Interpolation.LINEAR,
+                                                         Interpolation.CUBIC]
+    old = parse_keyframes(HEAD + "keyframes:\n  - {q: [0, 0, 0]}\n", arm3g)
+    assert old.keyframes[0].interpolation is None  # files without the key mean what they meant
+    with pytest.raises(ConfigError, match="linear, cubic, min-jerk"):
+        parse_keyframes(HEAD + "keyframes:\n  - {q: [0, 0, 0], interpolation: 3}\n", arm3g)

@@ -216,3 +216,48 @@ def test_keyframe_outside_limits_is_bad_input(arm3g: Arm, limits3g: MotionLimits
         plan_program(program, arm3g, limits3g, np.zeros(arm3g.dof))
     assert err.value.exit_code == 2 and message in str(err.value)
     assert err.value.where.keys == ("keyframes", 1)
+
+
+def test_each_segment_takes_the_interpolation_of_the_keyframe_it_arrives_at(
+        arm3g: Arm, limits3g: MotionLimits) -> None:
+    """Linear into b and c, min-jerk into d: straight in joint space up to c, at rest at c."""
+    qs = [(0.0, 0.0, 0.0), (0.4, 0.2, -0.1), (0.8, -0.2, 0.2), (0.2, 0.5, 0.4)]
+    kinds = [None, Interpolation.LINEAR, Interpolation.LINEAR, Interpolation.MIN_JERK]
+    prog = KeyframeProgram(arm3g.name, arm3g.joint_names[:3], tuple(
+        Keyframe(q=q, name=n, interpolation=k) for q, n, k in zip(qs, "abcd", kinds,
+                                                                   strict=True)))
+    start = np.array([0.0, 0.0, 0.0, 0.0])
+    plan = plan_program(prog, arm3g, limits3g, start,
+                        PlaybackOptions(Interpolation.CUBIC, blend=True))
+    _dense_check(plan.trajectory, limits3g)
+    wp = {w.name: w for w in plan.waypoints}
+    for name, q in zip("abcd", qs, strict=True):
+        assert np.allclose(plan.trajectory.sample(wp[name].time)[0][:3], q, atol=1e-6)
+    # a -> b -> c is what a linear playback of a, b, c alone gives, sample for sample
+    c = np.array(qs[2])
+    first = KeyframeProgram(arm3g.name, arm3g.joint_names[:3],
+                            tuple(Keyframe(q=q) for q in qs[:3]))
+    linear = plan_program(first, arm3g, limits3g, start,
+                          PlaybackOptions(Interpolation.LINEAR, blend=True))
+    assert linear.duration == pytest.approx(wp["c"].time, abs=1e-9)
+    ts = np.linspace(0.0, linear.duration, 200)
+    assert np.allclose(plan.trajectory.sample_many(ts)[0], linear.trajectory.sample_many(ts)[0],
+                       atol=1e-9)
+    # the kind changes at c: the arm rests there, then c -> d is one min-jerk segment
+    assert wp["c"].stop and np.allclose(plan.trajectory.sample(wp["c"].time)[1], 0.0,
+                                        atol=1e-9)
+    d = np.array(qs[3])
+    tau = np.linspace(0.0, 1.0, 11)
+    dur = wp["d"].time - wp["c"].time
+    q_cd = plan.trajectory.sample_many(wp["c"].time + tau * dur)[0][:, :3]
+    s_tau = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+    assert np.allclose(q_cd, c + s_tau[:, None] * (d - c), atol=1e-6)
+    # the same keyframes without the field are all cubic: another path from a to c
+    plain = KeyframeProgram(arm3g.name, arm3g.joint_names[:3],
+                            tuple(Keyframe(q=q, name=n) for q, n in zip(qs, "abcd", strict=True)))
+    cubic = plan_program(plain, arm3g, limits3g, start,
+                         PlaybackOptions(Interpolation.CUBIC, blend=True))
+    t_c = {w.name: w for w in cubic.waypoints}["c"].time
+    assert not np.allclose(cubic.trajectory.sample_many(np.linspace(0.0, t_c, 200))[0],
+                           plan.trajectory.sample_many(np.linspace(0.0, wp["c"].time, 200))[0],
+                           atol=1e-3)

@@ -18,6 +18,7 @@ from armctl.clock import SimulatedClock, WallClock
 from armctl.config.motion import ExitPolicy
 from armctl.errors import InputError
 from armctl.ik.errors import IKFailedError
+from armctl.motion import Interpolation
 from armctl.motion.keyframe_file import load_keyframes
 from armctl.panel import ControlDenied, ControlPanel, PanelBusy, Phase, PreviewKind
 from armctl.robot import Robot
@@ -375,3 +376,20 @@ def test_a_loaded_pose_keyframe_is_edited_through_the_robots_checks(robot, tmp_p
     back = load_keyframes(out, robot.arm)  # the file reader of armctl play
     np.testing.assert_allclose(back.keyframes[1].pose[:3, 3], new[:3, 3], atol=1e-6)
     assert back.keyframes[1].orientation is False
+
+
+def test_a_keyframe_takes_its_own_interpolation_into_the_file(robot, tmp_path: Path):
+    panel = _panel(robot)
+    panel.record("a", "here")
+    panel.record("a", "again")
+    panel.set_keyframe_interpolation("a", 1, Interpolation.LINEAR)
+    assert panel.program.keyframes[1].interpolation is Interpolation.LINEAR
+    with pytest.raises(ControlDenied):
+        panel.set_keyframe_interpolation("b", 1, Interpolation.CUBIC)
+    with pytest.raises(InputError, match="no keyframe 2"):
+        panel.set_keyframe_interpolation("a", 2, Interpolation.CUBIC)
+    path = panel.save("a", tmp_path / "kinds.yaml")
+    back = load_keyframes(path, robot.arm)  # the file reader of armctl play
+    assert [k.interpolation for k in back.keyframes] == [None, Interpolation.LINEAR]
+    panel.set_keyframe_interpolation("a", 1, None)
+    assert panel.program.keyframes[1].interpolation is None
