@@ -88,20 +88,35 @@ def cmd_info(args: argparse.Namespace) -> int:
     for i, name in enumerate(arm.joint_names):
         js = by_name[name]
         unit, k = _angle_unit(js.type is JointType.PRISMATIC, args.deg)
-        vel = arm.velocity_limits[i]
-        lim = eff.joint(name) if eff is not None else None
+        qs, vs = arm.q_index(i), arm.v_index(i)  # a multi-DOF joint has several entries
+        lower, upper = arm.lower[qs].tolist(), arm.upper[qs].tolist()
+        vels = arm.velocity_limits[vs].tolist()
+        vel = vels[0]
+        lim = eff.joint(name) if eff is not None and js.type.nq == 1 else None
         calibrated = lim.calibration if lim is not None else None
         shown_cal = ([fmt(calibrated[0] * k, 3), fmt(calibrated[1] * k, 3)] if calibrated
                      else ["-", "-"]) if eff is not None else []
-        rows.append([str(i), name, js.type.value, js.role.value, f"{fmt(arm.lower[i] * k, 3)}",
-                     f"{fmt(arm.upper[i] * k, 3)}", *shown_cal, unit,
-                     "-" if math.isnan(vel) else f"{fmt(vel * k, 2)} {unit}/s",
+        if js.type is JointType.BALL:  # a cone about the twist axis and a twist range
+            lo_text = f"swing {fmt(js.swing * k, 3)}"
+            hi_text = f"twist {fmt(js.limits.lower * k, 3)}..{fmt(js.limits.upper * k, 3)}"
+        else:
+            lo_text = ", ".join(fmt(v * k, 3) for v in lower)
+            hi_text = ", ".join(fmt(v * k, 3) for v in upper)
+        rows.append([str(i), name, js.type.value, js.role.value, lo_text, hi_text, *shown_cal,
+                     unit, "-" if math.isnan(vel) else f"{fmt(vel * k, 2)} {unit}/s",
                      " ".join(fmt(a, 3) for a in js.axis)])
+        one = js.type.nq == 1
         joints.append({"index": i, "name": name, "type": js.type.value, "role": js.role.value,
                        "parent": js.parent, "child": js.child, "axis": list(js.axis),
-                       "lower": arm.lower[i], "upper": arm.upper[i],
-                       "velocity": arm.velocity_limits[i],
-                       "acceleration": arm.acceleration_limits[i], "jerk": arm.jerk_limits[i]})
+                       "lower": lower[0] if one else lower, "upper": upper[0] if one else upper,
+                       "velocity": vel if one else vels,
+                       "acceleration": (arm.acceleration_limits[vs].tolist()[0] if one
+                                        else arm.acceleration_limits[vs].tolist()),
+                       "jerk": (arm.jerk_limits[vs].tolist()[0] if one
+                                else arm.jerk_limits[vs].tolist())})
+        if js.type is JointType.BALL:
+            joints[-1].update({"swing": js.swing,
+                               "twist": [js.limits.lower, js.limits.upper]})
         if lim is not None:
             joints[-1].update({
                 "calibrated": list(calibrated) if calibrated else None,

@@ -332,3 +332,23 @@ def test_cli_fk_and_render(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert main(["render", str(p), "-o", str(tmp_path / "r.png")]) == 0
     assert "no scene or clearance drawn" in capsys.readouterr().out
     assert (tmp_path / "r.png").stat().st_size > 0
+
+
+def test_info_shows_each_joints_own_limits(capsys: pytest.CaptureFixture[str]) -> None:
+    import json as _json
+
+    from armctl.cli import main as cli_main
+
+    path = Path(__file__).resolve().parents[1] / "data" / "ball_arm.yaml"
+    assert cli_main(["info", str(path), "--json"]) == 0
+    joints = {j["name"]: j for j in _json.loads(capsys.readouterr().out)["joints"]}
+    # the elbow after the ball joint shows its own range and speed, not the ball's entries
+    assert joints["elbow"]["lower"] == pytest.approx(-2.5)
+    assert joints["elbow"]["upper"] == pytest.approx(2.5)
+    assert joints["wrist"]["lower"] == pytest.approx([-2.0, -1.5])
+    assert joints["shoulder"]["swing"] == pytest.approx(np.radians(120))
+    assert joints["shoulder"]["twist"] == pytest.approx(np.radians([-150, 150]))
+    assert joints["shoulder"]["velocity"] == pytest.approx([2.0, 2.0, 2.0])
+    assert cli_main(["info", str(path), "--deg"]) == 0
+    text = capsys.readouterr().out
+    assert "swing 120.000" in text and "-143.239" in text
