@@ -289,21 +289,32 @@ def _fill_columns(pose: np.ndarray, w: np.ndarray, o: np.ndarray, cols: np.ndarr
 def fk_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
             out: np.ndarray) -> None:
     """Pose of frame ``f`` written into ``out`` (4x4)."""
+    if q.shape[0] != jd.shape[0]:  # a multi-DOF joint has several entries
+        _fk_multi(q, jd, fd, paths, f, out)  # kept out of line: the 1-DOF loop stays small
+        return
     t = np.empty((3, 4))
     _identity34(t)
     path = paths[f]
-    if q.shape[0] == jd.shape[0]:  # 1-DOF joints only (a multi-DOF joint has several entries)
-        for k in range(path.shape[0]):
-            j = path[k]
-            if j < 0:
-                break
-            _step(t, jd[j], q[j])
-    else:
-        for k in range(path.shape[0]):
-            j = path[k]
-            if j < 0:
-                break
-            _step_any(t, jd[j], q)
+    for k in range(path.shape[0]):
+        j = path[k]
+        if j < 0:
+            break
+        _step(t, jd[j], q[j])
+    _apply_offset(t, fd[f], out)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _fk_multi(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray, f: int,
+              out: np.ndarray) -> None:
+    """:func:`fk_into` for an arm with universal or ball joints."""
+    t = np.empty((3, 4))
+    _identity34(t)
+    path = paths[f]
+    for k in range(path.shape[0]):
+        j = path[k]
+        if j < 0:
+            break
+        _step_any(t, jd[j], q)
     _apply_offset(t, fd[f], out)
 
 
@@ -346,6 +357,13 @@ def fk_jacobian_into(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.nd
     if q.shape[0] == jd.shape[0]:  # 1-DOF joints only: the lean path
         _fk_jacobian_one(q, jd, fd, paths, f, pose, jac)
         return
+    _fk_jacobian_multi(q, jd, fd, paths, f, pose, jac)  # out of line: the lean path stays small
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _fk_jacobian_multi(q: np.ndarray, jd: np.ndarray, fd: np.ndarray, paths: np.ndarray,
+                       f: int, pose: np.ndarray, jac: np.ndarray) -> None:
+    """:func:`fk_jacobian_into` for an arm with universal or ball joints."""
     n = 3 * jd.shape[0]
     t = np.empty((3, 4))
     _identity34(t)
