@@ -40,6 +40,11 @@ def simulated_bus_spec(spec: ArmSpec) -> BusSpec:
     if not joints:
         raise InputError(f"arm {spec.name!r} has no actuated joint: there is no servo to "
                          "simulate (a 'bus:' section maps joints to servos, see docs/bus.md)")
+    multi = [f"{j.name!r} ({j.type.value})" for j in joints if j.type.nq != 1]
+    if multi:
+        raise InputError(f"arm {spec.name!r} has joints no servo can drive: {', '.join(multi)}; "
+                         "the simulated bus simulates servos, so it cannot run this arm. "
+                         "Solve it with 'armctl ik' and draw it with 'armctl render' instead")
     servos = tuple(
         ServoSpec(joint=j.name, id=i + 1, model=SIM_MODEL,
                   gear_ratio=SIM_PRISMATIC_RATIO if j.type is JointType.PRISMATIC else 1.0)

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.config.schema import ArmSpec, JointType
-from armctl.errors import ConfigError, InputError, JointLimitError, UnknownNameError
+from armctl.errors import ConfigError, InputError, JointLimitError, KeyPath, UnknownNameError
 from armctl.servo.calibration import Calibration, JointCalibration
 from armctl.servo_tables import Register, Vendor, table_for
 
@@ -300,8 +300,10 @@ class JointMapping:
                     homing = vendor.homing_sign * shift
             if joint.type.nq != 1:  # the config refuses these; a spec built in code may not
                 raise ConfigError(f"arm {spec.name!r}: joint {joint.name!r} is a "
-                                  f"{joint.type.value} joint, which servos cannot drive", None,
-                                  "drive 1-DOF joints with servos; remove this joint's servo")
+                                  f"{joint.type.value} joint, which servos cannot drive",
+                                  KeyPath(spec.file) if spec.file else None,
+                                  "drive 1-DOF joints with servos; remove this joint's servo "
+                                  "from the 'bus:' section")
             rest_value = home.get(joint.name, 0.0)
             rest = float(rest_value) if not isinstance(rest_value, tuple) else 0.0
             rest = min(max(rest, lower), upper) if math.isfinite(lower) or math.isfinite(

@@ -352,3 +352,14 @@ def test_info_shows_each_joints_own_limits(capsys: pytest.CaptureFixture[str]) -
     assert cli_main(["info", str(path), "--deg"]) == 0
     text = capsys.readouterr().out
     assert "swing 120.000" in text and "-143.239" in text
+
+
+def test_the_simulated_bus_refuses_an_arm_with_multi_dof_joints(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from armctl.cli import main as cli_main
+
+    path = Path(__file__).resolve().parents[1] / "data" / "ball_arm.yaml"
+    code = cli_main(["move-joints", str(path), "1", "0", "0", "0", "0", "0", "0", "--sim"])
+    err = capsys.readouterr().err
+    assert code == 2 and "no servo can drive: 'shoulder' (ball), 'wrist' (universal)" in err
+    assert "armctl render" in err and "Traceback" not in err
