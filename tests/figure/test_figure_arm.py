@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from figure_chain import chain_poses
 from PIL import Image
-from scipy.spatial.transform import Rotation
 
 import armctl
 from armctl.cli import main
@@ -28,34 +28,8 @@ WALK = Path(__file__).parent.parent.parent / "docs" / "examples" / "figure_walk.
 
 
 def _frame_poses(q: dict[str, float]) -> dict[str, np.ndarray]:
-    """Pose of every link and named frame, multiplying joint matrices from the base out."""
-    doc = yaml.safe_load(FIGURE.read_text(encoding="utf-8"))
-
-    def origin(o: dict) -> np.ndarray:
-        t = np.eye(4)
-        t[:3, 3] = o.get("xyz", [0, 0, 0])
-        t[:3, :3] = Rotation.from_euler("xyz", o.get("rpy", [0, 0, 0])).as_matrix()
-        return t
-
-    poses = {doc["base"]: np.eye(4)}
-    pending = list(doc["joints"])
-    while pending:
-        j = pending.pop(0)
-        if j["parent"] not in poses:
-            pending.append(j)
-            continue
-        motion = np.eye(4)
-        if j["type"] == "revolute":
-            motion[:3, :3] = Rotation.from_rotvec(np.asarray(j["axis"], float)
-                                                  * q[j["name"]]).as_matrix()
-        elif j["type"] == "spherical":
-            for i, axis in enumerate(j["axes"], start=1):
-                motion[:3, :3] = motion[:3, :3] @ Rotation.from_rotvec(
-                    np.asarray(axis, float) * q[f"{j['name']}_{i}"]).as_matrix()
-        poses[j["child"]] = poses[j["parent"]] @ origin(j.get("origin", {})) @ motion
-    for f in doc["frames"]:
-        poses[f["name"]] = poses[f["parent"]] @ origin(f.get("origin", {}))
-    return poses
+    """Pose of every link and named frame of the bundled figure, by the independent chain."""
+    return chain_poses(yaml.safe_load(FIGURE.read_text(encoding="utf-8")), q)
 
 
 def test_hand_and_feet_at_once_within_the_joint_limits():

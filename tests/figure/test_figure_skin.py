@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from figure_chain import chain_poses
 from scipy.spatial.transform import Rotation
 
 from armctl.config import bundled_configs_dir, load_spec
@@ -34,31 +35,6 @@ def _copy(folder: Path) -> Path:
     """The figure and its skin file copied into ``folder``; returns the arm file."""
     shutil.copyfile(SKIN, folder / SKIN.name)
     return Path(shutil.copyfile(FIGURE, folder / FIGURE.name))
-
-
-def _chain(doc: dict, q: dict[str, float]) -> dict[str, np.ndarray]:
-    """Pose of every link, multiplying joint matrices from the base outwards."""
-    poses = {doc["base"]: np.eye(4)}
-    pending = list(doc["joints"])
-    while pending:
-        j = pending.pop(0)
-        if j["parent"] not in poses:
-            pending.append(j)
-            continue
-        origin = np.eye(4)
-        o = j.get("origin", {})
-        origin[:3, 3] = o.get("xyz", [0, 0, 0])
-        origin[:3, :3] = Rotation.from_euler("xyz", o.get("rpy", [0, 0, 0])).as_matrix()
-        motion = np.eye(4)
-        if j["type"] == "revolute":
-            motion[:3, :3] = Rotation.from_rotvec(
-                np.asarray(j["axis"], float) * q[j["name"]]).as_matrix()
-        elif j["type"] == "spherical":  # three axes meeting in one point, NAME_1..3
-            for i, axis in enumerate(j["axes"], start=1):
-                motion[:3, :3] = motion[:3, :3] @ Rotation.from_rotvec(
-                    np.asarray(axis, float) * q[f"{j['name']}_{i}"]).as_matrix()
-        poses[j["child"]] = poses[j["parent"]] @ origin @ motion
-    return poses
 
 
 def test_skin_file_binds_every_vertex_to_one_bone():
@@ -83,10 +59,10 @@ def test_posed_vertices_equal_a_chain_of_matrices(figure: KinematicModel, tmp_pa
     assert drawn_count >= len(skin.vertices)
     rng = np.random.default_rng(5)
     assert skin.bind_pose == "tpose"
-    bind = _chain(doc, {j.name: 0.0 for j in figure.spec.actuated_joints})
+    bind = chain_poses(doc, {j.name: 0.0 for j in figure.spec.actuated_joints})
     for _ in range(3):
         q = rng.uniform(figure.lower, figure.upper)
-        poses = _chain(doc, dict(zip([j.name for j in figure.spec.actuated_joints], q,
+        poses = chain_poses(doc, dict(zip([j.name for j in figure.spec.actuated_joints], q,
                                      strict=True)))
         expected = np.array([(poses[b] @ np.linalg.inv(bind[b]) @ np.append(v, 1.0))[:3]
                              for v, b in zip(skin.vertices, skin.vertex_link, strict=True)])
@@ -199,8 +175,8 @@ def test_a_bind_pose_other_than_zero(tmp_path: Path, figure: KinematicModel):
     assert d.max() < 1e-9
     # at the T-pose each vertex is moved by T_b(0) T_b(stand)^-1 (chain of matrices)
     names = [j.name for j in other.spec.actuated_joints]
-    stand = _chain(doc, dict(zip(names, other.named_pose("stand"), strict=True)))
-    zero = _chain(doc, dict.fromkeys(names, 0.0))
+    stand = chain_poses(doc, dict(zip(names, other.named_pose("stand"), strict=True)))
+    zero = chain_poses(doc, dict.fromkeys(names, 0.0))
     want = np.array([(zero[b] @ np.linalg.inv(stand[b]) @ np.append(v, 1.0))[:3]
                      for v, b in zip(skin.vertices, skin.vertex_link, strict=True)])
     drawn = BoundGeometry(other).world_vertices(np.zeros(other.dof))
