@@ -256,8 +256,10 @@ def solve(
     Raises:
         UnsupportedGoalError: For goals or constraints the solver cannot take (naming those that
             can).
-        InputError: For an arm with universal or ball joints and a solver, constraints or
-            options that step 1-DOF joints only (:mod:`armctl.ik.tangent` runs the others).
+        InputError: For an arm with universal or ball joints and a solver or a collision
+            checker that takes 1-DOF joints only (:mod:`armctl.ik.tangent` runs the numerical
+            methods, with null-space criteria for ``pinv``, ``dls`` and ``auto``;
+            :mod:`armctl.ik.nlp` runs ``nlp`` with its constraints).
     """
     if model.multi_dof_joints:
         return _solve_multi_dof(model, goal, q0, solver, options, constraints, avoid)
@@ -289,24 +291,36 @@ _DEFAULT_OPTIONS = IKOptions()  # frozen: one instance serves every call without
 def _solve_multi_dof(model: KinematicModel, goal: GoalLike, q0: npt.ArrayLike | None,
                      solver: str, options: IKOptions | None, constraints: Sequence[Any],
                      avoid: CollisionModel | None) -> IKResult:
-    """IK on an arm with universal or ball joints: the tangent-space methods, or a refusal."""
+    """IK on an arm with universal or ball joints: the tangent-space methods, ``nlp``, or a refusal.
+
+    Raises:
+        InputError: For ``analytic`` (or any solver that steps 1-DOF joints only) and for a
+            collision checker, naming the multi-DOF joints and what to use instead.
+        UnsupportedGoalError: For constraints given to a method that takes none (naming
+            ``nlp``).
+    """
     from armctl.ik.tangent import TANGENT_METHODS, solve_tangent
 
     opts = options or _DEFAULT_OPTIONS
-    if solver not in TANGENT_METHODS or constraints or avoid is not None \
-            or opts.avoid is not None or opts.nullspace is not None:
-        what = (f"the solver {solver!r}" if solver not in TANGENT_METHODS else
-                "constraints, null-space criteria and collision avoidance")
+    joints = ", ".join(repr(n) for n in model.multi_dof_joints)
+    solver_info(solver)  # an unknown name lists the registered solvers
+    if solver not in TANGENT_METHODS and solver != "nlp":
         raise InputError(
-            f"arm {model.name!r} has the multi-DOF joint(s) "
-            f"{', '.join(repr(n) for n in model.multi_dof_joints)}: {what} supports 1-DOF "
-            f"joints only. Use one of {', '.join(sorted(TANGENT_METHODS))} without "
-            "constraints, null-space criteria or a collision checker.")
+            f"arm {model.name!r} has the multi-DOF joint(s) {joints}: the solver {solver!r} "
+            f"supports 1-DOF joints only. Use nlp or one of {', '.join(sorted(TANGENT_METHODS))}.")
+    if avoid is not None or opts.avoid is not None:
+        raise InputError(
+            f"arm {model.name!r} has the multi-DOF joint(s) {joints}: collision avoidance "
+            "(avoid=, or a scene on the command line) supports 1-DOF joints only. Solve without "
+            "a collision checker (armctl ik --no-collisions), and keep links out of given "
+            "zones with the nlp solver's KeepOutSphere and KeepOutBox constraints (--keep-out).")
     goals = as_goals(goal)
     for g in goals:
         model.frame_index(g.frame)
     check_request(solver, goals, constraints)
     start = model.neutral() if q0 is None else model.clip(q0)
+    if solver == "nlp":
+        return get_solver(solver)(model, goals, start, opts, tuple(constraints))
     return solve_tangent(model, goals, start, opts, solver)
 
 

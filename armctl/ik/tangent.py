@@ -26,6 +26,14 @@ its swing cone and twist range).
   (``ccd-jt``'s Jacobian-transpose steps serve them).
 * ``ccd-jt``: CCD sweeps alternated with optimal Jacobian-transpose steps.
 
+With null-space criteria (:attr:`IKOptions.nullspace`), ``pinv``, ``dls`` and ``auto`` go on from
+the first configuration that meets the goals along the lecture's redundancy step
+``v = J^+ e + (I - J^+ J) dz``, ``dz = -gain grad h`` with ``h`` and its tangent-space gradient
+from :class:`armctl.ik.nullspace.TangentObjective` (posture measured by
+:meth:`~armctl.kinematics.model.KinematicModel.difference`, a ball joint's swing and twist margins,
+keep-out spheres through the tangent Jacobian); a step is kept only when every goal is still met
+and ``h`` fell, else the next one is four times shorter, for :attr:`NullSpace.iterations` steps.
+
 Restarts draw uniformly inside the limits (:meth:`KinematicModel.sample`, uniform rotations in a
 ball joint's cone and twist range) from a seeded generator. Success is decided by
 :func:`armctl.ik.result.finish` from forward kinematics and the limits, never here.
@@ -41,18 +49,23 @@ import numpy as np
 from armctl.config.schema import JointType
 from armctl.ik import _residual as R
 from armctl.ik.goals import Goal, OrientationGoal, PoseGoal
+from armctl.ik.nullspace import TangentObjective
 from armctl.ik.options import IKOptions
 from armctl.ik.result import IKResult, IKStatus, finish
 from armctl.kinematics.model import KinematicModel
 from armctl.typing import Array
 
-__all__ = ["TANGENT_METHODS", "solve_tangent"]
+__all__ = ["NULLSPACE_METHODS", "TANGENT_METHODS", "solve_tangent"]
 
 #: The methods this module runs (registry names).
 TANGENT_METHODS = frozenset({"auto", "pinv", "dls", "jt", "ccd", "ccd-jt"})
 
 _RCOND = 1e-4
 _MAX_STEP = 0.5  # [rad] or [m]: the largest tangent step norm of one iteration
+_NS_STEP = 0.1  # [rad] or [m]: the largest null-space step, as the compiled engine's
+_NS_CORRECTIONS = 3  # pseudoinverse steps that bring a null-space step back onto the goals
+#: The methods that honour null-space criteria (the others ignore them, as for other arms).
+NULLSPACE_METHODS = frozenset({"auto", "pinv", "dls"})
 
 
 class _Problem:
@@ -179,6 +192,59 @@ def _ccd_sweep(p: _Problem, q: Array) -> Array:
     return q
 
 
+def _movable(model: KinematicModel, goals: tuple[Goal, ...]) -> Array:
+    """1.0 for each tangent entry of a joint that moves a goal's frame, else 0.0."""
+    out = np.zeros(model.nv)
+    for g in goals:
+        for j in model.chain(g.frame):
+            out[model.v_index(j)] = 1.0
+    return out
+
+
+def _refine(p: _Problem, q: Array, h: TangentObjective, deadline: float) -> tuple[Array, int]:
+    """Lower ``h`` along the self-motion of a configuration ``q`` that meets the goals.
+
+    Each step is ``v = J^+ e + (I - J^+ J) dz`` with ``dz = -gain scale grad h`` (capped at
+    :data:`_NS_STEP` times ``scale``), applied by ``integrate`` and ``clip``, followed by up to
+    :data:`_NS_CORRECTIONS` pseudoinverse steps back onto the goals; it is kept when
+    every goal is still met and ``h`` fell (``scale`` then doubles, at most 1), else ``scale``
+    is quartered; six refused steps in all, the iteration budget or the deadline end it.
+
+    Returns:
+        The best configuration (meeting every goal) and the steps taken.
+    """
+    model, ns = p.model, h.ns
+    movable = _movable(model, p.goals)
+    best_q, best_h = q, h(q)
+    scale, refused, steps = 1.0, 0, 0
+    for _ in range(ns.iterations):
+        steps += 1
+        p.residual(best_q)
+        jp = np.linalg.pinv(p.jac, rcond=_RCOND)
+        grad = h.gradient(best_q) * movable
+        dz = -ns.gain * scale * (grad - jp @ (p.jac @ grad))
+        n = float(np.linalg.norm(dz))
+        if n > _NS_STEP * scale:
+            dz *= _NS_STEP * scale / n
+        qn = model.clip(model.integrate(best_q, jp @ p.e + dz))
+        for _ in range(_NS_CORRECTIONS):  # back onto the goals: the step's second-order drift
+            if p.met(qn):
+                break
+            p.residual(qn)
+            qn = model.clip(model.integrate(qn, _cap(_pinv_step(p))))
+        hn = h(qn)
+        if p.met(qn) and hn < best_h - 1e-12 * (1.0 + abs(best_h)):
+            best_q, best_h, scale = qn, hn, min(2.0 * scale, 1.0)
+        else:
+            refused += 1
+            scale *= 0.25
+            if refused >= 6:
+                break
+        if time.perf_counter() > deadline:
+            break
+    return best_q, steps
+
+
 def _joint_world(model: KinematicModel, q: Array, j: int) -> Array:
     """The world pose of joint ``j``'s frame after its motion (its child link's frame)."""
     return model.fk(q, model.spec.actuated_joints[j].child)
@@ -192,7 +258,8 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         model: The arm.
         goals: The goals.
         q0: The start ``(nq,)``, inside the limits.
-        options: Iterations per attempt, restarts, time limit, seed.
+        options: Iterations per attempt, restarts, time limit, seed, null-space criteria
+            (``pinv``, ``dls`` and ``auto``; the other methods ignore them).
         solver: One of :data:`TANGENT_METHODS`.
 
     Returns:
@@ -200,6 +267,9 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     """
     started = time.perf_counter()
     p = _Problem(model, goals)
+    ns = options.nullspace
+    objective = (TangentObjective(model, ns, goals[0].frame)
+                 if ns is not None and ns.active and solver in NULLSPACE_METHODS else None)
     rng = np.random.default_rng(options.seed)
     best_q, best_e = q0, math.inf
     iterations = 0
@@ -213,6 +283,9 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         for _ in range(options.max_iterations):
             iterations += 1
             if p.met(q):
+                if objective is not None:
+                    q, steps = _refine(p, q, objective, started + options.time_limit)
+                    iterations += steps
                 return finish(model, goals, q, solver=solver, status=IKStatus.CONVERGED,
                               iterations=iterations, restarts=attempts - 1, started=started,
                               start=q0)
@@ -245,6 +318,9 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
             best_q, best_e = q, en
         if p.met(q):
             best_q = q
+            if objective is not None:
+                best_q, steps = _refine(p, q, objective, started + options.time_limit)
+                iterations += steps
             status = IKStatus.CONVERGED
             break
         if time.perf_counter() - started > options.time_limit:

@@ -97,8 +97,14 @@ def test_unreachable_is_no_success(arm: armctl.Arm) -> None:
 
 
 def test_what_the_tangent_methods_do_not_take(arm: armctl.Arm) -> None:
-    with pytest.raises(InputError, match="solver 'nlp' supports 1-DOF joints only"):
-        arm.ik(PositionGoal([0.1, 0, 0.5]), solver="nlp")
+    from armctl.ik.errors import UnsupportedGoalError
+    from armctl.ik.nlp import OnPlane
+
+    with pytest.raises(InputError, match="solver 'analytic' supports 1-DOF joints only"):
+        arm.ik(PositionGoal([0.1, 0, 0.5]), solver="analytic")
+    with pytest.raises(UnsupportedGoalError, match=r"does not accept constraints.*nlp"):
+        arm.ik(PositionGoal([0.1, 0, 0.5]), solver="dls",
+               constraints=[OnPlane([0, 0, 0.5], [0, 0, 1])])
 
 
 def test_cli_ik_on_a_ball_arm(tmp_path_factory: pytest.TempPathFactory,

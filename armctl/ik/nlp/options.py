@@ -45,8 +45,8 @@ class NLPOptions(IKOptions):
         damping: Levenberg-Marquardt damping added to the Gauss-Newton Hessian (not to the
             cost, so it does not move the answer): bounds the steps in directions the goals
             leave free. Problems with hard constraints use IPOPT's exact Hessian instead.
-        preferred: Preferred posture ``q_ref`` ``(dof,)`` [rad]/[m]; the start (the previous
-            solution when streaming) when ``None``.
+        preferred: Preferred posture ``q_ref`` ``(nq,)`` [rad]/[m] (a ball joint's unit
+            quaternion in place); the start (the previous solution when streaming) when ``None``.
         orientation_scale: Length that converts orientation errors into position errors
             [m/rad]; ``None`` for 0.3 times the arm's reach.
         seed_solver: Registered solver whose answer seeds the first restart (``""``: none);
@@ -91,11 +91,11 @@ class NLPOptions(IKOptions):
                    time_limit=options.time_limit, restarts=options.restarts, seed=options.seed,
                    avoid=options.avoid)
 
-    def preferred_array(self, dof: int) -> npt.NDArray[np.float64] | None:
-        """The preferred posture as an array, checked against the arm's DOF."""
+    def preferred_array(self, nq: int) -> npt.NDArray[np.float64] | None:
+        """The preferred posture as an array, checked against the length of the arm's ``q``."""
         if self.preferred is None:
             return None
-        if len(self.preferred) != dof:
-            raise InputError(f"the preferred posture has {len(self.preferred)} values; the arm "
-                             f"has {dof} joints")
+        if len(self.preferred) != nq:
+            raise InputError(f"the preferred posture has {len(self.preferred)} values; the "
+                             f"arm's joint vector q has {nq}")
         return np.array(self.preferred)

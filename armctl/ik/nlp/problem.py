@@ -12,6 +12,14 @@ Hessian handed to the solver is the Gauss-Newton one, ``2 J^T J`` (positive semi
 at a reached goal); with them IPOPT takes CasADi's exact Hessian of the Lagrangian and its own
 default options (see :func:`_solver_options`).
 
+On an arm with ball joints the decision variables are ``q`` itself (``model.nq`` entries, a ball
+joint's unit quaternion as four of them, a universal joint's two angles), and each ball joint
+adds its own rows (:func:`armctl.kinematics.symbolic.ball_limit_rows`): its unit norm as an
+equality, its swing cone and twist range as smooth inequalities, and ``w >= 0`` as a bound when
+it has a twist limit. Those rows make the problem one with hard constraints (IPOPT, exact
+Hessian); each answer is scaled to unit norm and projected into the limits
+(:meth:`KinematicModel.clip`, a move no larger than the rows' own tolerance).
+
 Everything that changes between solves (targets, weights, constraint numbers, ``q_ref``,
 ``lambda``) is a parameter, so a new target reuses the built solver; :func:`build_count` counts
 the builds so tests can assert it.
@@ -26,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from armctl.config.schema import JointType
 from armctl.errors import InputError
 from armctl.ik.goals import Goal
 from armctl.ik.nlp.constraints import AxisInCone, Constraint, Segment
@@ -68,7 +77,7 @@ def structure_key(model: KinematicModel, goals: Sequence[Goal],
     return (
         tuple((type(g).__name__, g.frame or model.tool) for g in goals),
         tuple(c.structure() for c in constraints),
-        _method(options, constraints), options.max_iterations, options.orientation_scale,
+        _method(options, constraints, model), options.max_iterations, options.orientation_scale,
     )
 
 
@@ -116,15 +125,16 @@ class Problem:
                  constraints: Sequence[Constraint], options: NLPOptions):
         import casadi as ca
 
-        from armctl.kinematics.symbolic import SymbolicFK
+        from armctl.kinematics.symbolic import SymbolicFK, ball_limit_rows, twist_bounded
 
         self.model = model
-        self.method = method = _method(options, constraints)
+        self.method = method = _method(options, constraints, model)
         self.length = model.tree.max_reach
         rho = options.orientation_scale or 0.3 * self.length
         sizes = [len(_goal_params(g)) for g in goals] + [len(c.params()) + (0 if c.hard else 1)
                                                          for c in constraints]
-        self.n_params = sum(sizes) + model.dof + 2
+        nq = model.nq
+        self.n_params = sum(sizes) + nq + 2
         p = ca.SX.sym("p", self.n_params)
         sym = SymbolicFK(model)
         q = sym.q
@@ -165,9 +175,12 @@ class Problem:
                 scale = rot_scale if isinstance(c, AxisInCone) else inv_len
                 viol = g_rows if c.equality else ca.fmax(g_rows, 0)
                 residuals.append(ca.sqrt(cp[size - 1]) * scale * viol)
-        q_ref = p[at:at + model.dof]
-        lam = p[at + model.dof]
-        damping = p[at + model.dof + 1]
+        for row in ball_limit_rows(model, q):  # a ball joint's unit norm, cone and twist range
+            rows.append(row.expr)
+            lbg.append(0.0 if row.equality else -np.inf)
+        q_ref = p[at:at + nq]
+        lam = p[at + nq]
+        damping = p[at + nq + 1]
         residuals.append(lam * (q - q_ref))  # lam: the square root of the weight (0 allowed)
         res = ca.vertcat(*residuals)
         g = ca.vertcat(*rows) if rows else ca.SX(0, 1)
@@ -195,7 +208,7 @@ class Problem:
             lam_g = ca.SX.sym("lam_g", len(lbg))
             # Gauss-Newton plus Levenberg-Marquardt damping: bounded steps where the goals leave
             # directions free (redundancy, position-only goals) and the regularisation is tiny
-            hess = 2 * lam_f * (jac.T @ jac + damping * ca.SX.eye(model.dof))
+            hess = 2 * lam_f * (jac.T @ jac + damping * ca.SX.eye(nq))
             if self.n_constraints:
                 hess = hess + ca.hessian(ca.dot(lam_g, g), q)[0]
             if method is Method.IPOPT:
@@ -209,6 +222,13 @@ class Problem:
             f"armctl_ik_{'warm' if warm else 'cold'}", method.value, nlp,
             _solver_options(method, options, hess_fn, self.n_constraints, warm)))
         self._warm: tuple[Array, Any, Any] | None = None
+        #: The bounds of the decision variables: the joint limits, and ``w >= 0`` for a ball
+        #: joint with a twist limit (its twist rows are exact on that half of the quaternions)
+        self.lbx = np.array(model.lower, dtype=float)
+        self.ubx = np.array(model.upper, dtype=float)
+        for i, j in enumerate(model.spec.actuated_joints):
+            if j.type is JointType.BALL and twist_bounded(j.limits.lower, j.limits.upper):
+                self.lbx[model.q_index(i).start] = 0.0
 
     def params(self, goals: Sequence[Goal], constraints: Sequence[Constraint], q_ref: Array,
                regularization: float, damping: float) -> Array:
@@ -217,7 +237,7 @@ class Problem:
         Args:
             goals: The goals.
             constraints: The constraints.
-            q_ref: Centre of the regularisation ``(dof,)``.
+            q_ref: Centre of the regularisation ``(nq,)``.
             regularization: Its weight.
             damping: Levenberg-Marquardt damping added to the Hessian approximation.
         """
@@ -234,21 +254,21 @@ class Problem:
     def recentred(self, params: Array, q_ref: Array) -> Array:
         """``params`` with the regularisation centred on ``q_ref``."""
         out = params.copy()
-        dof = self.model.dof
-        out[-2 - dof:-2] = q_ref
+        nq = self.model.nq
+        out[-2 - nq:-2] = q_ref
         return out
 
     def run(self, q0: Array, params: Array, warm: bool = True) -> Attempt:
         """Solve once from ``q0``.
 
         Args:
-            q0: Start ``(dof,)``.
+            q0: Start ``(nq,)``.
             params: Parameters from :meth:`params`.
             warm: Use the instance tuned for a start near the answer (and the last multipliers
                 when ``q0`` is the last answer); else the one tuned for a distant start.
         """
         model = self.model
-        kw: dict[str, Any] = {"x0": q0, "p": params, "lbx": model.lower, "ubx": model.upper}
+        kw: dict[str, Any] = {"x0": q0, "p": params, "lbx": self.lbx, "ubx": self.ubx}
         if len(self.lbg):
             kw["lbg"], kw["ubg"] = self.lbg, self.ubg
         if warm and self._warm is not None and np.array_equal(self._warm[0], q0):
@@ -256,15 +276,31 @@ class Problem:
         solver = self.solvers[warm]
         sol = solver(**kw)
         stats = solver.stats()
-        q = np.clip(np.array(sol["x"], dtype=float).reshape(-1), model.lower, model.upper)
-        if not np.all(np.isfinite(q)):
-            q = np.array(q0, dtype=float)
+        q = _inside(model, np.array(sol["x"], dtype=float).reshape(-1), q0)
         self._warm = (q, sol["lam_x"], sol["lam_g"])
         status = str(stats.get("return_status", ""))
         infeasible = status in ("Infeasible_Problem_Detected", "Restoration_Failed",
                                 "Search_Direction_Becomes_Too_Small") or (
             "infeasib" in status.lower())
         return Attempt(q, int(stats.get("iter_count", 0)), status, infeasible)
+
+
+def _inside(model: KinematicModel, x: Array, q0: Array) -> Array:
+    """The solver's ``x`` as a joint vector inside the limits (``q0`` when it is not finite).
+
+    1-DOF entries are clipped; a ball joint's quaternion is scaled to unit norm and projected
+    into its cone and twist range.
+    """
+    q = np.clip(x, model.lower, model.upper)
+    if not np.all(np.isfinite(q)):
+        return np.array(q0, dtype=float)
+    if model.nq == model.nv:
+        return q
+    for i, j in enumerate(model.spec.actuated_joints):
+        sl = model.q_index(i)
+        if j.type is JointType.BALL and not float(np.linalg.norm(q[sl])) > 1e-9:
+            return np.array(q0, dtype=float)
+    return model.clip(model.normalize(q))
 
 
 def _max_iter(options: NLPOptions, warm: bool, n_constraints: int) -> int:
@@ -274,8 +310,11 @@ def _max_iter(options: NLPOptions, warm: bool, n_constraints: int) -> int:
     return options.max_iterations
 
 
-def _method(options: NLPOptions, constraints: Sequence[Constraint]) -> Method:
-    return options.method.resolve(any(c.hard for c in constraints))
+def _method(options: NLPOptions, constraints: Sequence[Constraint],
+            model: KinematicModel) -> Method:
+    """The solver: a ball joint's rows (its unit norm at least) count as hard constraints."""
+    balls = any(t is JointType.BALL for t in model.joint_types)
+    return options.method.resolve(balls or any(c.hard for c in constraints))
 
 
 def _solver_options(method: Method, options: NLPOptions, hess: Any, n_constraints: int,

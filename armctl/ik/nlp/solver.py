@@ -19,6 +19,12 @@ a little) is polished once with the regularisation centred on its own answer. Th
 (least hard-constraint violation, then least goal error) is returned when none succeeds, with
 status ``INFEASIBLE`` when the hard constraints could not be met together.
 
+On an arm with universal or ball joints the same runs over ``q`` of ``model.nq`` entries (a
+ball joint's quaternion as four variables with its unit norm, swing cone and twist range as
+rows, see :mod:`armctl.ik.nlp.problem`), seeded by the tangent-space methods
+(:mod:`armctl.ik.tangent`); success is decided the same way, by forward kinematics and the
+model's own limit check.
+
 With a collision checker (``options.avoid``) the scene's obstacles become hard keep-out
 constraints (:func:`armctl.ik.nlp.scene.scene_keep_out`, the checker's own shapes), and an
 attempt counts as a success only when the checker finds its answer free (contacts between the
@@ -35,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from armctl.config.schema import JointType
 from armctl.errors import ArmctlError, InputError
 from armctl.ik.goals import Goal
 from armctl.ik.nlp.constraints import Constraint
@@ -76,6 +83,25 @@ def check_constraints(model: KinematicModel, constraints: Sequence[Any]) -> tupl
     return tuple(out)
 
 
+def _check_method(model: KinematicModel, options: NLPOptions) -> None:
+    """Refuse ``Method.SQP`` on an arm with ball joints, whose unit-norm rows it does not solve.
+
+    CasADi's ``sqpmethod`` with the Gauss-Newton Hessian crawled on such arms (on the arm of
+    ``tests/data/ball_arm.yaml``: 2 of 30 random pose goals within the budget, IPOPT 30 of 30).
+
+    Raises:
+        InputError: Naming the ball joints and the methods to use.
+    """
+    balls = [n for n, t in zip(model.joint_names, model.joint_types, strict=True)
+             if t is JointType.BALL]
+    if options.method is Method.SQP and balls:
+        raise InputError(
+            f"NLPOptions(method=Method.SQP) does not solve arm {model.name!r}: its ball "
+            f"joint(s) {', '.join(repr(n) for n in balls)} add unit-norm, cone and twist rows "
+            "that sqpmethod does not converge on; use Method.AUTO (the default) or "
+            "Method.IPOPT")
+
+
 def _merit(model: KinematicModel, goals: tuple[Goal, ...], hard: Sequence[Constraint],
            q: Array) -> tuple[float, float, bool]:
     """(hard violation beyond tolerance, scaled goal error, every goal and hard constraint met)."""
@@ -107,7 +133,13 @@ def _seeds(model: KinematicModel, goals: tuple[Goal, ...], q0: Array, options: N
                                seed=options.seed)
             t0 = time.perf_counter()
             try:
-                res = get_solver(options.seed_solver)(model, goals, q0, budget, ())
+                if model.multi_dof_joints:  # the tangent-space methods step ball joints
+                    from armctl.ik.tangent import TANGENT_METHODS, solve_tangent
+
+                    res = (solve_tangent(model, goals, q0, budget, options.seed_solver)
+                           if options.seed_solver in TANGENT_METHODS else None)
+                else:
+                    res = get_solver(options.seed_solver)(model, goals, q0, budget, ())
             except ArmctlError:
                 res = None
             overrun.append(max(0.0, time.perf_counter() - t0 - 2 * budget.time_limit))
@@ -125,8 +157,8 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     Args:
         model: The arm.
         goals: The goals (one per frame; several end effectors at once).
-        q0: Start inside the limits; also the regularisation centre unless
-            ``options.preferred`` is given.
+        q0: Start inside the limits ``(nq,)`` (a ball joint's unit quaternion in place); also
+            the regularisation centre unless ``options.preferred`` is given.
         options: :class:`NLPOptions` (plain :class:`IKOptions` get NLP defaults).
         constraints: :mod:`armctl.ik.nlp.constraints` objects, hard or weighted.
 
@@ -135,6 +167,7 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     """
     started = time.perf_counter()
     opts = NLPOptions.from_options(options)
+    _check_method(model, opts)
     cons = check_constraints(model, constraints)
     avoid = opts.avoid
     if avoid is not None:
@@ -143,7 +176,9 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         cons = (*cons, *scene_keep_out(avoid))
     hard = [c for c in cons if c.hard]
     problem = get_problem(model, goals, cons, opts)
-    pref = opts.preferred_array(model.dof)
+    pref = opts.preferred_array(model.nq)
+    if pref is not None and model.nq != model.nv:
+        pref = model.as_q(pref, "the preferred posture")  # a ball joint's quaternion of unit norm
     q_ref = np.array(q0, dtype=float) if pref is None else pref
     # with hard constraints (IPOPT, exact Hessian) the regularisation is left out unless a
     # preferred posture asks for it: IPOPT's path from the start ends at a nearby answer anyway,
@@ -205,7 +240,9 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         message += f", {collided} of them met the goals in contact"
     return finish(model, goals, best_q, solver="nlp", status=status, iterations=iterations,
                   restarts=max(attempts - 1, 0), started=started, constraints=cons,
-                  message=message, start=q0, search=True, avoid=avoid)
+                  message=message, start=q0, avoid=avoid,
+                  # the singularity diagnosis (armctl.ik.singular) takes 1-DOF joints only
+                  search=not model.multi_dof_joints)
 
 
 def _attempt(problem: Problem, model: KinematicModel, goals: tuple[Goal, ...],
