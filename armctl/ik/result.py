@@ -306,7 +306,7 @@ def finish(
         qa = np.array(model.as_q(q), dtype=float)
         finite = True
     except InputError:  # a wrong shape (a bug: raised again), or a NaN or infinite value
-        if np.shape(q) != (model.dof,):
+        if np.shape(q) != (model.nq,):
             raise
         qa = np.array(model.as_q(model.middle() if start is None else start), dtype=float)
         finite = False

@@ -96,7 +96,12 @@ def _evaluate(model: KinematicModel, ga: GoalArrays, q: Array,
 
 
 def _prismatic(model: KinematicModel) -> Array:
-    return model_arrays(model).kernel[2][:, JOINT_PRISMATIC] != 0.0
+    """Which Jacobian columns (tangent entries, ``(nv,)``) belong to prismatic joints."""
+    per_joint = model_arrays(model).kernel[2][:, JOINT_PRISMATIC] != 0.0
+    if not model.multi_dof_joints:
+        return per_joint
+    return np.repeat(per_joint, [model.v_index(j).stop - model.v_index(j).start
+                                 for j in range(len(model.joint_names))])
 
 
 def goal_rank(model: KinematicModel, goals: Sequence[Goal]) -> int:
@@ -166,7 +171,9 @@ def stuck_at_singularity(model: KinematicModel, goals: Sequence[Goal], q: Array,
         if s[k] >= SINGULAR_THRESHOLD:
             continue
         for sign in (1.0, -1.0):
-            probe = np.clip(q0 + sign * PROBE_STEP * vt[k] * scale, model.lower, model.upper)
+            step = sign * PROBE_STEP * vt[k] * scale
+            probe = (model.clip(model.integrate(q0, step)) if model.multi_dof_joints
+                     else np.clip(q0 + step, model.lower, model.upper))
             if _evaluate(model, ga, probe, False)[0] < energy * (1.0 - _PROBE_GAIN):
                 return float(s[r - 1])
     return None

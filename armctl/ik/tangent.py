@@ -265,8 +265,10 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     Returns:
         The result; ``success`` from forward kinematics and the limits.
     """
-    started = time.perf_counter()
     p = _Problem(model, goals)
+    p.residual(model.clip(q0))  # loads the compiled kernels before the clock starts
+    p.met(model.clip(q0))
+    started = time.perf_counter()
     ns = options.nullspace
     objective = (TangentObjective(model, ns, goals[0].frame)
                  if ns is not None and ns.active and solver in NULLSPACE_METHODS else None)
@@ -328,4 +330,4 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
             break
         q = model.sample(rng)
     return finish(model, goals, best_q, solver=solver, status=status, iterations=iterations,
-                  restarts=attempts - 1, started=started, start=q0)
+                  restarts=attempts - 1, started=started, start=q0, search=True)

@@ -96,6 +96,27 @@ def test_unreachable_is_no_success(arm: armctl.Arm) -> None:
     assert arm.within_limits(res.q)
 
 
+@pytest.mark.parametrize("method", ["pinv", "dls", "jt"])
+def test_a_stretched_arm_with_its_target_on_its_line(arm: armctl.Arm, method: str) -> None:
+    """Straight up (every joint at rest), target on the arm's own line: the Jacobian has lost
+    the radial direction, the step is zero; the failure is reported (the singularity
+    diagnosis runs on the tangent columns of a ball joint) and CCD moves where they cannot."""
+    from armctl.ik.singular import goal_jacobian
+
+    q0 = arm.neutral()
+    q0[arm.q_index("elbow")] = 0.0
+    tip = arm.fk(q0)[:3, 3]
+    goal = PositionGoal(tip - np.array([0.0, 0.0, 0.15]))  # 15 cm nearer, on the same line
+    assert np.linalg.svd(goal_jacobian(arm, [goal], q0), compute_uv=False)[-1] < 1e-12
+    opts = armctl.ik.IKOptions(max_iterations=30, restarts=0)
+    res = arm.ik(goal, q0, method, options=opts)
+    assert not res.success
+    assert res.status in (armctl.ik.IKStatus.SINGULAR, armctl.ik.IKStatus.MAX_ITERATIONS)
+    assert np.linalg.norm(arm.fk(res.q)[:3, 3] - tip) < 1e-9  # it did not move
+    ccd = arm.ik(goal, q0, "ccd", options=opts)
+    assert np.linalg.norm(arm.fk(ccd.q)[:3, 3] - tip) > 0.05
+
+
 def test_what_the_tangent_methods_do_not_take(arm: armctl.Arm) -> None:
     from armctl.ik.errors import UnsupportedGoalError
     from armctl.ik.nlp import OnPlane

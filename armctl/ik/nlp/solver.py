@@ -240,9 +240,7 @@ def solve(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         message += f", {collided} of them met the goals in contact"
     return finish(model, goals, best_q, solver="nlp", status=status, iterations=iterations,
                   restarts=max(attempts - 1, 0), started=started, constraints=cons,
-                  message=message, start=q0, avoid=avoid,
-                  # the singularity diagnosis (armctl.ik.singular) takes 1-DOF joints only
-                  search=not model.multi_dof_joints)
+                  message=message, start=q0, search=True, avoid=avoid)
 
 
 def _attempt(problem: Problem, model: KinematicModel, goals: tuple[Goal, ...],
