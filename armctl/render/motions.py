@@ -33,7 +33,8 @@ def _ik_for(arm: Arm, program: KeyframeProgram, solver: str) -> IKFunction:
 
     frame = program.frame or None
     moving = set(arm.chain(frame))
-    still = [i for i in range(arm.dof) if i not in moving]
+    still = [k for i in range(len(arm.joint_names)) if i not in moving
+             for k in range(arm.q_index(i).start, arm.q_index(i).stop)]
 
     def ik(pose: Array, seed: Array, orientation: bool) -> Array:
         goal: Any = (PoseGoal(pose, frame=frame) if orientation
