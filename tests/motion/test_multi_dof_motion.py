@@ -364,3 +364,15 @@ def test_a_walk_of_the_figure_with_ball_hips_and_shoulders(figure: armctl.Arm,
     after = _body_rates(traj, np.array([step2.time + 3e-4]), hip)[0]
     assert np.linalg.norm(before) > 0.1
     assert np.linalg.norm(after - before) < 0.02 * np.linalg.norm(before)
+
+
+def test_planners_that_work_coordinate_by_coordinate_refuse_clearly(arm: armctl.Arm) -> None:
+    from armctl.ik import PositionGoal as Goal
+    from armctl.motion import plan_detour
+    from armctl.motion.cartesian import plan_line
+
+    limits = MotionLimits.from_model(arm)
+    with pytest.raises(InputError, match=r"straight-line tool moves .* 'shoulder' \(ball\)"):
+        plan_line(arm, arm.named_pose("home"), Goal([0.3, 0.1, 0.4]), limits)
+    with pytest.raises(InputError, match=r"detour planning .* 1-DOF joints only"):
+        plan_detour(None, arm.neutral(), arm.neutral(), limits)  # type: ignore[arg-type]
