@@ -259,7 +259,9 @@ def _linear_layout_run(pts: Array, limits: MotionLimits, durations: Array | None
     lay = _layout(limits)
     scalar = pts[:, lay.scalar_q]
     slim = _scalar_limits(limits)
-    if durations is None:
+    if scalar.shape[1] == 0:  # ball joints only: every one rests at every keyframe
+        v, acc = np.zeros_like(scalar), np.zeros_like(scalar)
+    elif durations is None:
         v, acc = _via_velocities(scalar, slim, cautious), np.zeros_like(scalar)
     else:
         v, acc = _recorded_state(scalar, durations, slim)

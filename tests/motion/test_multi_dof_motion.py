@@ -376,3 +376,55 @@ def test_planners_that_work_coordinate_by_coordinate_refuse_clearly(arm: armctl.
         plan_line(arm, arm.named_pose("home"), Goal([0.3, 0.1, 0.4]), limits)
     with pytest.raises(InputError, match=r"detour planning .* 1-DOF joints only"):
         plan_detour(None, arm.neutral(), arm.neutral(), limits)  # type: ignore[arg-type]
+
+
+BALL_ONLY = """armctl: 1
+name: ball_only
+base: base
+tool: hand
+joints:
+  - {name: hip, type: ball, parent: base, child: hand, origin: {xyz: [0, 0, 0.1]}}
+"""
+UNIVERSAL_ONLY = """armctl: 1
+name: universal_only
+base: base
+tool: hand
+joints:
+  - name: wrist
+    type: universal
+    parent: base
+    child: hand
+    origin: {xyz: [0, 0, 0.1]}
+    limits: [{lower: -2, upper: 2}, {lower: -1.5, upper: 1.5}]
+"""
+
+
+@pytest.mark.parametrize("text", [BALL_ONLY, UNIVERSAL_ONLY], ids=["ball", "universal"])
+@pytest.mark.parametrize("kind", list(Interpolation), ids=lambda k: k.value)
+def test_arms_of_ball_or_universal_joints_only(tmp_path: Path, text: str,
+                                               kind: Interpolation) -> None:
+    path = tmp_path / "arm.yaml"
+    path.write_text(text, encoding="utf-8")
+    one = armctl.load_arm(path)
+    ball = one.joint_types[0].value == "ball"
+    rows = ([_euler(e) for e in [(0, 0, 0), (30, 10, 0), (0, 40, -20), (-10, 0, 30)]] if ball
+            else [(0.0, 0.0), (0.5, 0.3), (1.0, -0.2), (0.2, 0.1)])
+    program = KeyframeProgram(one.name, one.joint_names,
+                              tuple(Keyframe(q=tuple(r), name=f"k{i}")
+                                    for i, r in enumerate(rows)), widths=(len(rows[0]),))
+    plan = plan_program(program, one, MotionLimits.from_model(one), one.neutral(),
+                        PlaybackOptions(kind, loops=2))
+    assert [w.name for w in plan.waypoints] == ["k0", "k1", "k2", "k3"] * 2
+    traj = plan.trajectory
+    ts = np.linspace(DT, plan.duration - DT, 2000)
+    if ball:
+        rates = np.linalg.norm(_body_rates(traj, ts, slice(0, 4)), axis=1)
+    else:
+        rates = np.abs(traj.sample_many(ts + DT)[0] - traj.sample_many(ts - DT)[0]) / (2 * DT)
+    assert rates.max() <= 1.0 * (1 + 1e-3)
+    for w, r in zip(plan.waypoints, rows * 2, strict=True):
+        q = traj.sample(w.time)[0]
+        if ball:
+            assert (_rot(q).inv() * _rot(np.array(r))).magnitude() < 1e-9
+        else:
+            assert np.allclose(q, r, atol=1e-9)
