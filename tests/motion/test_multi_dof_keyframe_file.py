@@ -122,6 +122,7 @@ def test_render_keyframes_of_an_arm_with_ball_joints(tmp_path: Path,
 - {name: a, q: [[1, 0, 0, 0], 20, [0, 0]]}
 - {name: b, q: [{rpy: [30, 20, 10]}, 30, [10, 5]]}
 - {name: c, q: [{rotvec: [0, 60, 0]}, 60, [-10, 20]]}
+- {name: d, pose: {xyz: [0.2, 0.1, 0.45]}}
 """, encoding="utf-8")
     gif = tmp_path / "walk.gif"
     assert main(["render", str(BALL_ARM), "--keyframes", str(path), "-o", str(gif), "--fps",
@@ -129,3 +130,9 @@ def test_render_keyframes_of_an_arm_with_ball_joints(tmp_path: Path,
     out = capsys.readouterr().out
     assert "playback of walk.yaml" in out and "planned only; nothing moved" in out
     assert Image.open(gif).n_frames >= 4
+    # the pose keyframe, solved by IK (seeded with the one before), is where the playback ends
+    from armctl.render.motions import plan_keyframes
+
+    arm = armctl.load_arm(BALL_ARM)
+    plan = plan_keyframes(arm, path, arm.named_pose("home"))
+    assert np.allclose(arm.fk(plan.goal)[:3, 3], [0.2, 0.1, 0.45], atol=1e-3)
