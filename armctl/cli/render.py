@@ -301,17 +301,26 @@ def _render_motion(args: argparse.Namespace, arm: Arm, q: np.ndarray, view: View
             emit(args, data, text)
             return 0
     ts, qs = sample_plan(plan, max(args.fps, 1.0) * 2.0)
+    checker, no_scene = None, ""
+    if not args.no_scene:
+        try:
+            checker = CollisionModel.of(arm, scene)
+        except InputError:
+            if not arm.multi_dof_joints:
+                raise
+            # a collision checker that steps 1-DOF joints only: drawn without the scene
+            no_scene = ("\nnote: no scene or contacts drawn: the collision checker does not "
+                        f"take this arm's joints ({', '.join(arm.multi_dof_joints)})")
     res = render_animation(arm, qs, ts, args.output, fps=args.fps, view=view, camera=camera,
                            frames=frames_arg(args), target=target, line=line,
                            size=args.size or 4.5, dpi=args.dpi or 80.0,
-                           title=f"{arm.name}: {head}",
-                           scene=None if args.no_scene else CollisionModel.of(arm, scene))
+                           title=f"{arm.name}: {head}", scene=checker)
     data.update(frames=res.frames, fps=res.fps, duration=res.duration, goal=plan.goal,
                 contact_frames=res.contact_frames,
                 first_contact=None if res.first_contact is None else {
                     "time": res.first_contact_time, **(clearance_data(res.first_contact) or {})})
     text = (f"wrote {res.path}: {head}, {res.duration:.2f} s, {res.frames} frames "
-            f"at {res.fps:.3g} fps (planned only; nothing moved)")
+            f"at {res.fps:.3g} fps (planned only; nothing moved){no_scene}")
     if res.first_contact is not None:
         frames = ("1 frame shows" if res.contact_frames == 1
                   else f"{res.contact_frames} frames show")

@@ -158,8 +158,11 @@ def plan_line(model: KinematicModel, q0: npt.ArrayLike, goal: Goal, limits: Moti
     Raises:
         PathError: With the fraction of the path that could be planned and why it fails.
         LimitViolation: If the timed path would exceed a limit.
+        InputError: For an arm with universal or ball joints.
     """
     t0 = time.perf_counter()
+    # the joint path is splined coordinate by coordinate: a quaternion's would leave the sphere
+    model.require_one_dof("straight-line tool moves (a joint path splined per coordinate)")
     scaled = limits.scaled(speed)
     q_start = np.asarray(q0, dtype=float)
     start = model.fk(q_start, goal.frame)

@@ -264,13 +264,18 @@ def plan_detour(checker: CollisionChecker, q0: npt.ArrayLike, q1: npt.ArrayLike,
         CollisionError: If the start or the goal itself collides.
         LimitViolation: If the goal is outside the joint limits.
         MissingExtraError: For :attr:`Planner.OMPL` without OMPL installed.
-        InputError: For a bad speed factor or joint vectors of the wrong size.
+        InputError: For a bad speed factor, joint vectors of the wrong size, or the limits of an
+            arm with universal or ball joints.
     """
     t0 = time.perf_counter()
     opts = options or DetourOptions()
     if opts.planner is Planner.AUTO:
         opts = replace(opts, planner=Planner.OMPL if _has_ompl() else Planner.BUILTIN)
     check_speed(speed)
+    if limits.layout is not None:
+        raise InputError("detour planning searches joint space coordinate by coordinate and "
+                         "supports arms of 1-DOF joints only; this arm has universal or ball "
+                         "joints: plan its moves with plan_joint_move or keyframe playback")
     start = np.asarray(q0, dtype=float).reshape(-1)
     goal = np.asarray(q1, dtype=float).reshape(-1)
     if start.size != limits.dof or goal.size != limits.dof:

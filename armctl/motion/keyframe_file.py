@@ -21,6 +21,11 @@ unit of the arm's gripper joint (an angle for a rotary gripper, a length for a p
 ``min-jerk``) sets how the segment arriving at that keyframe is joined (without it: the
 playback's interpolation). Any angle or length may also be written as a string with
 its unit (``"15 deg"``, ``"0.3 rad"``, ``"12 mm"``, ``"0.012 m"``).
+
+On an arm with universal or ball joints, a universal joint's value in ``q`` is a list of its two
+angles (``[10, -5]``, in ``units.angle``) and a ball joint's a unit quaternion ``[w, x, y, z]``
+(no unit applies to it), or ``{rpy: [r, p, y]}`` / ``{rotvec: [x, y, z]}`` (angles in
+``units.angle``), e.g. ``q: [[1, 0, 0, 0], 30, [10, -5]]``. Files are written with quaternions.
 """
 
 from __future__ import annotations
@@ -41,7 +46,14 @@ from armctl.errors import InputError
 from armctl.kinematics.model import KinematicModel
 from armctl.motion.interpolate import Interpolation
 from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram, LengthUnit
-from armctl.spatial import make_transform, matrix_to_rpy, quat_to_matrix, rpy_to_matrix
+from armctl.spatial import (
+    make_transform,
+    matrix_to_quat,
+    matrix_to_rpy,
+    quat_to_matrix,
+    rotvec_to_matrix,
+    rpy_to_matrix,
+)
 
 __all__ = ["FORMAT_VERSION", "load_keyframes", "parse_keyframes", "save_keyframes",
            "write_atomic"]
@@ -161,6 +173,8 @@ def _parse(top: Section, model: KinematicModel) -> KeyframeProgram:
     file_units = _Units(unit, length)
     joints = _joint_names(top, model)
     rotary = [model.joint_types[model.joint_index(j)] is not JointType.PRISMATIC for j in joints]
+    types = tuple(model.joint_types[model.joint_index(j)] for j in joints)
+    multi = bool(model.multi_dof_joints)
     frame = top.string("frame", required=False)
     if frame:
         try:
@@ -168,7 +182,8 @@ def _parse(top: Section, model: KinematicModel) -> KeyframeProgram:
         except InputError as exc:
             raise top.error(str(exc), "frame") from None
     grip_rotary = _gripper_rotary(model)
-    kfs = [_keyframe(sec.mapping(), rotary, grip_rotary, file_units)
+    kfs = [_keyframe(sec.mapping(), rotary, grip_rotary, file_units,
+                     (joints, types) if multi else None)
            for sec in top.list_of("keyframes")]
     times = [kf.time for kf in kfs if kf.time is not None]
     if any(b <= a for a, b in itertools.pairwise(times)):
@@ -178,7 +193,7 @@ def _parse(top: Section, model: KinematicModel) -> KeyframeProgram:
         arm=arm, joints=joints, keyframes=tuple(kfs),
         calibration=top.string("calibration", required=False) or None, frame=frame,
         angle_unit=unit, description=top.string("description", required=False),
-        length_unit=length,
+        length_unit=length, widths=tuple(t.nq for t in types) if multi else (),
     )
 
 
@@ -212,7 +227,87 @@ def _values(sec: Section, key: str, rotary: list[bool], units: _Units) -> tuple[
                  for i, (x, r) in enumerate(zip(raw, rotary, strict=True)))
 
 
-def _keyframe(sec: Section, rotary: list[bool], grip_rotary: bool, units: _Units) -> Keyframe:
+#: How far a ball joint's quaternion in a keyframe file may be from unit norm (it is then
+#: normalised): four decimals written by hand, e.g. [0.7071, 0.7071, 0, 0].
+_UNIT_NORM_TOLERANCE = 1e-3
+
+
+def _multi_values(sec: Section, key: str, joints: tuple[str, ...],
+                  types: tuple[JointType, ...], units: _Units) -> tuple[float, ...]:
+    """Joint values of an arm with universal or ball joints, flattened, in SI units.
+
+    A 1-DOF joint's value is a number, a universal joint's a list of two angles, a ball joint's
+    a unit quaternion ``[w, x, y, z]``, ``{rpy: [...]}`` or ``{rotvec: [...]}``.
+    """
+    raw = sec.value[key]
+    n = len(joints)
+    example = ", ".join("[1, 0, 0, 0]" if t is JointType.BALL else
+                        "[0, 0]" if t is JointType.UNIVERSAL else "0" for t in types)
+    if not isinstance(raw, list) or len(raw) != n:
+        found = f"a list of {len(raw)} items" if isinstance(raw, list) else type(raw).__name__
+        raise sec.error(f"expected a list of {n} joint values (one per joint in 'joints': "
+                        f"{', '.join(joints)}), found {found}", key,
+                        fix=f"write it as [{example}]: a ball joint's value is a quaternion "
+                            "[w, x, y, z], a universal joint's its two angles")
+    out: list[float] = []
+    for i, (x, name, jtype) in enumerate(zip(raw, joints, types, strict=True)):
+        if jtype is JointType.BALL:
+            out += _ball_value(sec, x, name, units, key, i)
+        elif jtype is JointType.UNIVERSAL:
+            if not isinstance(x, list) or len(x) != 2:
+                raise sec.error(f"universal joint {name!r} takes a list of its 2 angles, found "
+                                f"{x!r}", key, i, fix="write it as [a1, a2] (in the file's "
+                                f"angle unit, {units.angle.value})")
+            out += [units.to_si(sec, a, True, key, i, k) for k, a in enumerate(x)]
+        else:
+            if isinstance(x, (list, dict)):
+                raise sec.error(f"joint {name!r} ({jtype.value}) takes one value, found {x!r}",
+                                key, i, fix="write a number")
+            out.append(units.to_si(sec, x, jtype is not JointType.PRISMATIC, key, i))
+    return tuple(out)
+
+
+def _ball_value(sec: Section, raw: object, joint: str, units: _Units, *keys: str | int
+                ) -> list[float]:
+    """A ball joint's value in a keyframe: a unit quaternion ``[w, x, y, z]`` (``w >= 0``)."""
+    forms = ("write a unit quaternion [w, x, y, z], or {rpy: [roll, pitch, yaw]} or "
+             f"{{rotvec: [x, y, z]}} in the file's angle unit ({units.angle.value})")
+    if isinstance(raw, dict):
+        if len(raw) != 1 or next(iter(raw)) not in ("rpy", "rotvec"):
+            raise sec.error(f"ball joint {joint!r}: expected {{rpy: [...]}} or "
+                            f"{{rotvec: [...]}}, found keys {sorted(map(str, raw))}", *keys,
+                            fix=forms)
+        form, vec = next(iter(raw.items()))
+        if not isinstance(vec, list) or len(vec) != 3:
+            raise sec.error(f"ball joint {joint!r}: '{form}' takes 3 angles, found {vec!r}",
+                            *keys, form, fix=forms)
+        angles = np.array([units.to_si(sec, a, True, *keys, form, k) for k, a in
+                           enumerate(vec)])
+        rot = rpy_to_matrix(angles) if form == "rpy" else rotvec_to_matrix(angles)
+        quat = matrix_to_quat(rot)
+    else:
+        if not isinstance(raw, list) or len(raw) != 4:
+            found = (f"a list of {len(raw)} numbers" if isinstance(raw, list) else repr(raw))
+            raise sec.error(f"ball joint {joint!r} takes a unit quaternion [w, x, y, z], found "
+                            f"{found}", *keys, fix=forms)
+        for k, x in enumerate(raw):
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+                raise sec.error(f"ball joint {joint!r}: quaternion entry {k} is {x!r}, not a "
+                                "finite number (a quaternion has no unit)", *keys, k,
+                                fix=forms)
+        quat = np.array(raw, dtype=float)
+        norm = float(np.linalg.norm(quat))
+        if abs(norm - 1.0) > _UNIT_NORM_TOLERANCE:
+            hint = (f"; normalised it is {np.round(quat / norm, 6).tolist()}" if norm > 0
+                    else "")
+            raise sec.error(f"ball joint {joint!r}: the quaternion {raw} has norm {norm:.6g}, "
+                            f"not 1{hint}", *keys, fix=forms)
+        quat = quat / norm
+    return (quat if quat[0] >= 0 else -quat).tolist()
+
+
+def _keyframe(sec: Section, rotary: list[bool], grip_rotary: bool, units: _Units,
+              multi: tuple[tuple[str, ...], tuple[JointType, ...]] | None = None) -> Keyframe:
     sec.check_keys([], _KF_KEYS)
     if sec.has("q") == sec.has("pose"):
         raise sec.error("a keyframe needs exactly one of 'q' (joint values) or 'pose'",
@@ -220,7 +315,8 @@ def _keyframe(sec: Section, rotary: list[bool], grip_rotary: bool, units: _Units
     q = pose = None
     orientation = True
     if sec.has("q"):
-        q = _values(sec, "q", rotary, units)
+        q = (_values(sec, "q", rotary, units) if multi is None
+             else _multi_values(sec, "q", *multi, units))
     else:
         psec = sec.child("pose").mapping()
         pose = _pose(psec, units)
@@ -289,7 +385,9 @@ def to_document(program: KeyframeProgram, model: KinematicModel) -> dict[str, An
         item: dict[str, Any] = _Flow()
         if kf.name:
             item["name"] = kf.name
-        if kf.q is not None:
+        if kf.q is not None and program.widths:
+            item["q"] = _multi_out(kf.q, program, model, units)
+        elif kf.q is not None:
             item["q"] = [units.out(x, r) for x, r in zip(kf.q, rotary, strict=False)]
         elif kf.pose is not None:
             item["pose"] = _Flow(xyz=[units.length_out(x) for x in kf.pose[:3, 3]])
@@ -307,6 +405,28 @@ def to_document(program: KeyframeProgram, model: KinematicModel) -> dict[str, An
         items.append(item)
     doc["keyframes"] = items
     return doc
+
+
+def _multi_out(q: tuple[float, ...], program: KeyframeProgram, model: KinematicModel,
+               units: _Units) -> list[Any]:
+    """Joint values of an arm with universal or ball joints as written: nested per joint."""
+    out: list[Any] = []
+    at = 0
+    for name, width in zip(program.joints, program.widths, strict=True):
+        jtype = model.joint_types[model.joint_index(name)]
+        vals = q[at:at + width]
+        at += width
+        if jtype is JointType.BALL:
+            out.append(_FlowList(_num(x, 9) for x in vals))
+        elif jtype is JointType.UNIVERSAL:
+            out.append(_FlowList(units.angle_out(x) for x in vals))
+        else:
+            out.append(units.out(vals[0], jtype is not JointType.PRISMATIC))
+    return _FlowList(out)
+
+
+class _FlowList(list[Any]):
+    """A list written on one line, nested lists included (a keyframe's joint values)."""
 
 
 _Dumper: type[yaml.SafeDumper] = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
@@ -329,7 +449,12 @@ def _flow_list(dumper: yaml.SafeDumper, data: list[Any]) -> yaml.Node:
     return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flow)
 
 
+def _flow_nested(dumper: yaml.SafeDumper, data: _FlowList) -> yaml.Node:
+    return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=True)
+
+
 _FlowLists.add_representer(list, _flow_list)
+_FlowLists.add_representer(_FlowList, _flow_nested)
 _FlowLists.add_representer(_Flow, _flow_dict)
 
 

@@ -40,7 +40,8 @@ class Keyframe:
 
     Attributes:
         q: Joint values [rad]/[m] in the order of :attr:`KeyframeProgram.joints`, or ``None``
-            for a Cartesian keyframe.
+            for a Cartesian keyframe. A universal joint takes its two angles in place, a ball
+            joint its unit quaternion ``w, x, y, z`` (see :attr:`KeyframeProgram.widths`).
         pose: ``(4, 4)`` tool pose in the base frame [m], solved by IK at play time, or ``None``.
         orientation: Whether a pose keyframe constrains the orientation too (``False``: only
             the position counts, as for 5-joint arms).
@@ -89,6 +90,8 @@ class KeyframeProgram:
         angle_unit: Unit of angles in the file (values in memory are always SI).
         description: Free text.
         length_unit: Unit of lengths in the file.
+        widths: How many values of ``q`` each listed joint takes (2 for a universal joint, 4
+            for a ball joint's quaternion); empty: one each (an arm of 1-DOF joints).
     """
 
     arm: str
@@ -99,12 +102,18 @@ class KeyframeProgram:
     angle_unit: AngleUnit = AngleUnit.RAD
     description: str = ""
     length_unit: LengthUnit = LengthUnit.M
+    widths: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
+        if self.widths and len(self.widths) != len(self.joints):
+            raise InputError(f"the program lists {len(self.joints)} joints but "
+                             f"{len(self.widths)} widths")
+        n = sum(self.widths) if self.widths else len(self.joints)
         for k, kf in enumerate(self.keyframes):
-            if kf.q is not None and len(kf.q) != len(self.joints):
+            if kf.q is not None and len(kf.q) != n:
+                what = (f"{n} values for its joints" if self.widths else f"{n} joints")
                 raise InputError(f"keyframe {k} ({kf.label}) has {len(kf.q)} joint values; the "
-                                 f"program lists {len(self.joints)} joints")
+                                 f"program lists {what}")
 
     def append(self, keyframe: Keyframe) -> KeyframeProgram:
         """A copy with one more keyframe at the end."""

@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.motion.limits import MotionLimits, check_trajectory
+from armctl.motion.multi_dof import geodesic_move
 from armctl.motion.profiles import ruckig_move
 from armctl.motion.trajectory import Trajectory
 from armctl.typing import Array
@@ -92,18 +93,21 @@ class MotionPlan:
         """Largest |velocity| / limit and |acceleration| / limit over the plan [-]."""
         n = max(2, int(self.duration / dt) + 1)
         _, qd, qdd = self.trajectory.sample_many(np.linspace(0.0, self.duration, n))
-        return (float(np.max(np.abs(qd) / self.limits.velocity, initial=0.0)),
-                float(np.max(np.abs(qdd) / self.limits.acceleration, initial=0.0)))
+        vel, acc, _ = self.limits.rate_limits()
+        return (float(np.max(np.abs(self.limits.rates(qd)) / vel, initial=0.0)),
+                float(np.max(np.abs(self.limits.rates(qdd)) / acc, initial=0.0)))
 
 
 def plan_joint_move(q0: npt.ArrayLike, q1: npt.ArrayLike, limits: MotionLimits,
                     speed: float = 1.0, description: str = "") -> MotionPlan:
     """A synchronised, time-optimal, jerk-limited joint move, checked before anything moves.
 
-    All joints start and stop together and move along a straight line in joint space.
+    All joints start and stop together and move along a straight line in joint space; a ball
+    joint turns on the great circle (slerp), timed by its geodesic angle.
 
     Args:
-        q0: Start joint values (the present position) ``(dof,)`` [rad]/[m].
+        q0: Start joint values (the present position) ``(nq,)`` [rad]/[m] (a ball joint's
+            unit quaternion ``w, x, y, z``).
         q1: Goal joint values.
         limits: The arm's hard limits.
         speed: Speed factor in (0, 1] applied to the velocity, acceleration and jerk limits.
@@ -120,7 +124,10 @@ def plan_joint_move(q0: npt.ArrayLike, q1: npt.ArrayLike, limits: MotionLimits,
     start = np.asarray(q0, dtype=float)
     goal = np.asarray(q1, dtype=float)
     limits.check_position(goal, "goal of the move")
-    traj = ruckig_move(start, goal, limits.scaled(speed))
+    if limits.layout is not None:
+        traj: Trajectory = geodesic_move(start, goal, limits.scaled(speed))
+    else:
+        traj = ruckig_move(start, goal, limits.scaled(speed))
     n = check_trajectory(traj, limits, hint="lower the speed factor or check the limits")
     wps = (Waypoint(0.0, start, "start"), Waypoint(traj.duration, goal, "goal"))
     return MotionPlan(traj, limits, (), wps, time.perf_counter() - t0, n,

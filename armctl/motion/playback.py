@@ -22,6 +22,7 @@ from armctl.kinematics.model import KinematicModel
 from armctl.motion.errors import LimitViolation
 from armctl.motion.interpolate import Interpolation, plan_run
 from armctl.motion.keyframes import AngleUnit, Keyframe, KeyframeProgram, LengthUnit
+from armctl.motion.layout import JointLayout
 from armctl.motion.limits import (
     MAX_RECORDED_SPEED,
     MIN_SPEED,
@@ -29,6 +30,7 @@ from armctl.motion.limits import (
     check_speed,
     check_trajectory,
 )
+from armctl.motion.multi_dof import geodesic_move, plan_layout_run
 from armctl.motion.plan import Event, MotionPlan, Waypoint
 from armctl.motion.profiles import ruckig_move
 from armctl.motion.trajectory import Chain, Hold, Trajectory
@@ -139,21 +141,60 @@ class _Stop:
     interpolation: Interpolation | None = None  # of the segment arriving here
 
 
+def _q_entries(model: KinematicModel, joints: tuple[str, ...]) -> list[int]:
+    """The entries of ``q`` of some joints, in their order (a ball joint's four, ...)."""
+    if not model.multi_dof_joints:
+        return [model.joint_index(j) for j in joints]
+    out: list[int] = []
+    for j in joints:
+        sl = model.q_index(j)
+        out += range(sl.start, sl.stop)
+    return out
+
+
+def _program_entries(program: KeyframeProgram, model: KinematicModel) -> list[int]:
+    """The entries of ``q`` that a program's joint keyframes give, checked against its widths.
+
+    Raises:
+        InputError: If the program's values per keyframe do not fit its joints on this arm.
+    """
+    idx = _q_entries(model, program.joints)
+    if len(idx) != (sum(program.widths) if program.widths else len(program.joints)):
+        raise InputError(f"the program's joints {', '.join(program.joints)} take {len(idx)} "
+                         f"values on arm {model.name!r} (a ball joint 4, a universal joint 2); "
+                         "give the program their widths, as load_keyframes does")
+    return idx
+
+
+def _gripper_entries(model: KinematicModel) -> list[int]:
+    """The entries of ``q`` of the gripper joints (1-DOF joints)."""
+    return [model.q_index(i).start if model.multi_dof_joints else i
+            for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
+
+
+def _move(q0: Array, q1: Array, limits: MotionLimits) -> Trajectory:
+    """A rest-to-rest joint move: ball joints on the great circle (arms that have them)."""
+    if limits.layout is not None:
+        return geodesic_move(q0, q1, limits)
+    return ruckig_move(q0, q1, limits)
+
+
 def resolve_keyframes(program: KeyframeProgram, model: KinematicModel, q_start: npt.ArrayLike,
                       ik: IKFunction | None = None) -> list[Array]:
-    """Full joint vectors ``(dof,)`` for every keyframe, in program order.
+    """Full joint vectors ``(nq,)`` for every keyframe, in program order.
 
     Joints the program does not list keep their value from ``q_start`` (gripper joints follow
     the keyframes' ``gripper`` values: the value a keyframe arrives with is the one in force
     before it). Cartesian keyframes are solved by ``ik`` seeded with the previous keyframe.
+    A ball joint's quaternion is returned with unit norm and ``w >= 0``.
 
     Raises:
         InputError: For a Cartesian keyframe without an IK function.
         NoSolutionError: If a Cartesian keyframe cannot be reached (names the keyframe).
     """
     q = np.array(q_start, dtype=float)
-    idx = [model.joint_index(j) for j in program.joints]
-    grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
+    idx = _program_entries(program, model)
+    grip = _gripper_entries(model)
     out = []
     for k, kf in enumerate(program.keyframes):
         cur = q.copy()
@@ -170,6 +211,8 @@ def resolve_keyframes(program: KeyframeProgram, model: KinematicModel, q_start: 
             keep = cur[grip].copy()
             cur = sol.copy()
             cur[grip] = keep
+        if model.multi_dof_joints:
+            cur = model.normalize(cur)
         out.append(cur)
         q = cur
         if kf.gripper is not None:
@@ -208,10 +251,12 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
         raise InputError("the keyframe program has no keyframes")
     check_playback_speed(program, options)
     start = np.asarray(q_start, dtype=float)
+    if model.multi_dof_joints:
+        start = model.normalize(start)
     qs = resolve_keyframes(program, model, start, ik)
     for k, (q, kf) in enumerate(zip(qs, program.keyframes, strict=True)):
         _check_keyframe(program, model, k, kf, q)
-    grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
+    grip = _gripper_entries(model)
     stops = [_Stop(q, kf.label if kf.name else f"#{k}", kf.dwell, kf.gripper, kf.time,
                    not options.blend or kf.dwell > 0 or kf.gripper is not None,
                    kf.interpolation)
@@ -236,11 +281,12 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
     if options.ease_in:
         ease_speed = options.ease_in_speed if timed else min(options.ease_in_speed,
                                                               options.speed)
-        ease = ruckig_move(start, seq[0].q, limits.scaled(ease_speed))
+        ease = _move(start, seq[0].q, limits.scaled(ease_speed))
         parts.append(ease)
         clock += ease.duration
         cur = seq[0].q
-    elif np.max(np.abs(seq[0].q - start)) > 1e-3:
+    elif (np.max(np.abs(model.difference(start, seq[0].q))) if model.multi_dof_joints
+          else np.max(np.abs(seq[0].q - start))) > 1e-3:
         raise InputError("the arm is not at the first keyframe; enable ease-in to move there")
     first = seq[0]
     waypoints.append(Waypoint(clock, first.q, first.name, True))
@@ -261,7 +307,7 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
             run = [_Stop(cur, st.name, 0.0, None, st.time, True)]
     if len(run) > 1:
         clock, cur = _emit_run(run, scaled, options, timed, parts, waypoints, clock)
-    parts = [p for p in parts if p.duration > 0] or [Hold(cur, 0.0)]
+    parts = [p for p in parts if p.duration > 0] or [Hold(cur, 0.0, limits.dof)]
     traj = parts[0] if len(parts) == 1 else Chain(parts)
     hint = "lower the speed factor"
     if timed:
@@ -269,8 +315,10 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
     try:
         kinds = {options.interpolation, *(kf.interpolation for kf in program.keyframes)}
         n = check_trajectory(traj, limits, check_jerk=Interpolation.CUBIC not in kinds,
-                             hint=hint)
+                             hint=hint, ball_jerk=kinds == {Interpolation.LINEAR})
     except LimitViolation as exc:
+        if exc.kind in ("swing", "twist"):
+            raise _ball_limit_error(exc, waypoints) from None
         if timed and exc.kind in ("velocity", "acceleration", "jerk"):
             best = _fastest_recorded_speed(traj, limits, options.speed, exc)
             advice = (f"try --speed {math.floor(best * 0.95 * 100) / 100:.2f} or lower"
@@ -287,6 +335,23 @@ def plan_program(program: KeyframeProgram, model: KinematicModel, limits: Motion
                       tuple(waypoints), time.perf_counter() - t0, n, desc)
 
 
+def _ball_limit_error(exc: LimitViolation, waypoints: list[Waypoint]) -> LimitViolation:
+    """A ball joint leaving its swing or twist range between keyframes, naming them.
+
+    Both keyframes are inside the limits (each is checked); the arc between them is not: the
+    set of rotations inside a twist range or a swing cone is not convex on the sphere.
+    """
+    before = [w for w in waypoints if w.time <= exc.time + 1e-9]
+    after = [w for w in waypoints if w.time > exc.time + 1e-9]
+    where = (f"between keyframes {before[-1].name!r} and {after[0].name!r}" if before and after
+             else (f"after keyframe {before[-1].name!r}" if before else
+                   "on the way to the first keyframe"))
+    hint = (f"the {exc.kind} of ball joint {exc.joint!r} leaves its range {where} (both "
+            "keyframes are inside; the turn between them is not): add a keyframe between "
+            "them inside the range, or change one of them")
+    return LimitViolation(exc.joint, exc.kind, exc.value, exc.bound, exc.time, hint, exc.unit)
+
+
 def _fastest_recorded_speed(traj: Trajectory, limits: MotionLimits, speed: float,
                             first: LimitViolation, dt: float = 0.002) -> float:
     """The largest speed factor at which a recording's timing stays inside the limits [-].
@@ -298,17 +363,19 @@ def _fastest_recorded_speed(traj: Trajectory, limits: MotionLimits, speed: float
     n = max(2, math.ceil(traj.duration / dt) + 1)
     ts = np.unique(np.concatenate([np.linspace(0.0, traj.duration, n), traj.breakpoints()]))
     _, qd, qdd = traj.sample_many(ts)
-    worst = max(float(np.max(np.abs(qd) / limits.velocity, initial=0.0)),
-                math.sqrt(float(np.max(np.abs(qdd) / limits.acceleration, initial=0.0))),
+    vel, acc, jerk_lim = limits.rate_limits()
+    qd, qdd = limits.rates(qd), limits.rates(qdd)
+    worst = max(float(np.max(np.abs(qd) / vel, initial=0.0)),
+                math.sqrt(float(np.max(np.abs(qdd) / acc, initial=0.0))),
                 abs(first.value) / first.bound if first.kind == "velocity" else 0.0,
                 math.sqrt(abs(first.value) / first.bound) if first.kind == "acceleration"
                 else 0.0,
                 (abs(first.value) / first.bound) ** (1 / 3) if first.kind == "jerk" else 0.0)
-    if np.any(np.isfinite(limits.jerk)) and ts.size > 2:
+    if np.any(np.isfinite(jerk_lim)) and ts.size > 2:
         dts = np.diff(ts)
         keep = dts > 1e-6
         jerk = np.diff(qdd, axis=0)[keep] / dts[keep, None]
-        worst = max(worst, float(np.max(np.abs(jerk) / limits.jerk, initial=0.0)) ** (1 / 3))
+        worst = max(worst, float(np.max(np.abs(jerk) / jerk_lim, initial=0.0)) ** (1 / 3))
     return speed / worst if worst > 1.0 else speed
 
 
@@ -321,9 +388,9 @@ def check_keyframe_values(program: KeyframeProgram, model: KinematicModel) -> No
     Raises:
         ConfigError: In the file's units, naming the file, line, keyframe, joint and limits.
     """
-    idx = [model.joint_index(j) for j in program.joints]
+    idx = _program_entries(program, model)
     for k, kf in enumerate(program.keyframes):
-        q = np.full(model.dof, np.nan)
+        q = np.full(model.nq, np.nan)
         if kf.q is not None:
             q[idx] = kf.q
         _check_keyframe(program, model, k, kf, q)
@@ -338,6 +405,9 @@ def _check_keyframe(program: KeyframeProgram, model: KinematicModel, k: int, kf:
     Raises:
         ConfigError: In the file's angle unit, naming the keyframe, the joint and the limits.
     """
+    if model.multi_dof_joints:
+        _check_multi_dof_keyframe(program, model, k, kf, q)
+        return
     grip = [i for i, r in enumerate(model.joint_roles) if r is JointRole.GRIPPER]
     checks = [(i, float(q[i]), "") for i in range(model.dof) if not math.isnan(q[i])]
     if kf.gripper is not None:
@@ -360,6 +430,68 @@ def _check_keyframe(program: KeyframeProgram, model: KinematicModel, k: int, kf:
             f"{what}joint {model.joint_names[i]!r} would be "
             f"{v * scale:.6g} {unit}{source}, outside its limits [{lo * scale:.6g}, "
             f"{hi * scale:.6g}] {unit}; nothing was moved", where, fix)
+
+
+def _check_multi_dof_keyframe(program: KeyframeProgram, model: KinematicModel, k: int,
+                              kf: Keyframe, q: Array) -> None:
+    """:func:`_check_keyframe` for an arm with universal or ball joints.
+
+    1-DOF joints and a universal joint's angles against their ranges, a ball joint's rotation
+    against its swing cone and twist range (angles in the file's angle unit).
+
+    Raises:
+        ConfigError: Naming the keyframe, the joint (and angle) and the limits.
+    """
+    where = kf.where if kf.where.keys else KeyPath(keys=("keyframes", k), label=kf.label)
+    source = "" if kf.q is not None else " (IK solution of the pose)"
+    deg = program.angle_unit is AngleUnit.DEG
+    grip = _gripper_entries(model)
+    layout = JointLayout.of(model)
+    assert layout is not None
+    values = q.copy()
+    if kf.gripper is not None:
+        values[grip] = kf.gripper
+    for i, name in enumerate(model.joint_names):
+        sl = model.q_index(i)
+        part = values[sl]
+        if np.isnan(part).any():
+            continue
+        jtype = model.joint_types[i]
+        what = "gripper value for " if kf.gripper is not None and sl.start in grip else ""
+        if jtype is JointType.BALL:
+            ball = next(x for x in layout.balls if x.name == name)
+            row = model.neutral()  # every other ball joint at rest, inside its limits
+            row[ball.q] = part / np.linalg.norm(part)
+            found = layout.ball_violation(row[None, :])
+            if found is not None:
+                _, _, kind, value, lo, hi = found
+                scale, unit = (float(np.degrees(1.0)), "deg") if deg else (1.0, "rad")
+                raise ConfigError(
+                    f"the {kind} of ball joint {name!r} would be {value * scale:.6g} {unit}"
+                    f"{source}, outside its limits [{lo * scale:.6g}, {hi * scale:.6g}] "
+                    f"{unit}; nothing was moved", where,
+                    "change the keyframe's rotation to one inside the swing cone and twist "
+                    "range")
+            continue
+        for n, v in enumerate(part):
+            j = sl.start + n
+            lo, hi = float(model.lower[j]), float(model.upper[j])
+            if lo - _LIMIT_TOL <= v <= hi + _LIMIT_TOL:
+                continue
+            unit, scale = "rad", 1.0
+            if jtype is JointType.PRISMATIC:
+                unit, scale = program.length_unit.value, 1.0 / program.length_unit.metres
+            elif deg:
+                unit, scale = "deg", float(np.degrees(1.0))
+            label = f"angle {n + 1} of universal joint" if jtype is JointType.UNIVERSAL else (
+                "joint")
+            fix = "change the keyframe to a value inside the joint limits"
+            if kf.q is not None or what:
+                fix = _unit_hint(program, jtype, float(v), lo, hi) + fix
+            raise ConfigError(
+                f"{what}{label} {name!r} would be {v * scale:.6g} {unit}{source}, outside its "
+                f"limits [{lo * scale:.6g}, {hi * scale:.6g}] {unit}; nothing was moved",
+                where, fix)
 
 
 def _unit_hint(program: KeyframeProgram, jtype: JointType, value: float, lo: float,
@@ -398,8 +530,9 @@ def _emit_run(run: list[_Stop], limits: MotionLimits, options: PlaybackOptions, 
         b = a
         while b + 1 < len(kinds) and kinds[b + 1] is kinds[a]:
             b += 1
-        traj, knots = plan_run(q[a:b + 2], limits, kinds[a],
-                               None if durations is None else durations[a:b + 1])
+        planner = plan_run if limits.layout is None else plan_layout_run
+        traj, knots = planner(q[a:b + 2], limits, kinds[a],
+                              None if durations is None else durations[a:b + 1])
         for k, (s, t) in enumerate(zip(run[a + 1:b + 2], knots[1:], strict=False)):
             at_rest = s.stop or (k == b - a and b + 1 < len(kinds))  # the kind changes here
             waypoints.append(Waypoint(clock + t, s.q, s.name, at_rest))
@@ -412,13 +545,13 @@ def _emit_run(run: list[_Stop], limits: MotionLimits, options: PlaybackOptions, 
 def _gripper_move(q: Array, value: float, grip: list[int], limits: MotionLimits) -> Trajectory:
     goal = q.copy()
     goal[grip] = value
-    return ruckig_move(q, goal, limits)
+    return _move(q, goal, limits)
 
 
 def _emit_stop(st: _Stop, cur: Array, grip: list[int], limits: MotionLimits,
                parts: list[Trajectory], events: list[Event], clock: float) -> tuple[float, Array]:
     if st.dwell > 0:
-        parts.append(Hold(cur, st.dwell))
+        parts.append(Hold(cur, st.dwell, limits.dof))
         events.append(Event(clock, "dwell", st.name, st.dwell))
         clock += st.dwell
     if st.gripper is not None and grip:

@@ -32,6 +32,8 @@ import numpy.typing as npt
 
 from armctl.errors import PlanningError
 from armctl.motion.interpolate import Interpolation, spline_through
+from armctl.motion.quaternions import conj as _conj
+from armctl.motion.quaternions import quat_exp, quat_log, quat_multiply
 from armctl.typing import Array
 
 __all__ = [
@@ -42,43 +44,6 @@ __all__ = [
     "quat_multiply",
     "slerp_path",
 ]
-
-
-def quat_multiply(a: npt.ArrayLike, b: npt.ArrayLike) -> Array:
-    """Hamilton product ``a · b`` of quaternions ``(..., 4)`` ``(w, x, y, z)``."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
-                     aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw], -1)
-
-
-def _conj(q: Array) -> Array:
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
-
-
-def quat_exp(rotvec: npt.ArrayLike) -> Array:
-    """Unit quaternions ``(..., 4)`` of rotation vectors ``(..., 3)`` [rad]."""
-    r = np.asarray(rotvec, dtype=float)
-    angle = np.linalg.norm(r, axis=-1, keepdims=True)
-    half = 0.5 * angle
-    # sin(half)/angle, with its series near zero
-    k = np.where(angle > 1e-8, np.sin(half) / np.where(angle > 1e-8, angle, 1.0),
-                 0.5 - angle**2 / 48.0)
-    return np.concatenate([np.cos(half), k * r], -1)
-
-
-def quat_log(q: npt.ArrayLike) -> Array:
-    """Rotation vectors ``(..., 3)`` [rad] of unit quaternions ``(..., 4)``, angle in [0, pi]."""
-    q = np.asarray(q, dtype=float)
-    q = np.where(q[..., :1] < 0.0, -q, q)  # the same rotation, the shorter way
-    v = q[..., 1:]
-    s = np.linalg.norm(v, axis=-1, keepdims=True)
-    angle = 2.0 * np.arctan2(s, q[..., :1])
-    k = np.where(s > 1e-12, angle / np.where(s > 1e-12, s, 1.0), 2.0)
-    return k * v
 
 
 def _aligned(knots: Array) -> Array:
@@ -166,6 +131,37 @@ class QuaternionSpline:
         self._w = np.stack([quat_log(quat_multiply(_conj(a), b))
                             for a, b in ((c0, c1), (c1, c2), (c2, c3))], 1)  # (n-1, 3, 3)
 
+    def sample(self, t: npt.ArrayLike) -> tuple[Array, Array, Array]:
+        """Rotation, body angular velocity and acceleration at times ``t`` [s].
+
+        Differentiates the product ``c0 · A1 · A2 · A3`` (``A_i = exp(w_i B_i(u))`` turns about
+        the fixed axis of ``w_i``): with ``ω_0 = α_0 = 0`` and ``R_i`` the rotation of ``A_i``,
+        ``ω_i = R_i^T ω_i-1 + w_i B_i'`` and
+        ``α_i = R_i^T α_i-1 - (w_i B_i') × (R_i^T ω_i-1) + w_i B_i''`` (derivatives in time).
+
+        Returns:
+            ``(len(t), 4)`` unit quaternions, ``(len(t), 3)`` angular velocities [rad/s] and
+            ``(len(t), 3)`` angular accelerations [rad/s^2], both in the moved (body) frame.
+        """
+        k, u = _segment(self.times, np.atleast_1d(np.asarray(t, dtype=float)))
+        h = (self.times[k + 1] - self.times[k])[:, None]
+        basis = np.stack([1.0 - (1.0 - u) ** 3, 3.0 * u**2 - 2.0 * u**3, u**3], 1)
+        d1 = np.stack([3.0 * (1.0 - u) ** 2, 6.0 * u - 6.0 * u**2, 3.0 * u**2], 1)
+        d2 = np.stack([-6.0 * (1.0 - u), 6.0 - 12.0 * u, 6.0 * u], 1)
+        out = self.knots[k]
+        omega = np.zeros((k.size, 3))
+        alpha = np.zeros((k.size, 3))
+        for i in range(3):
+            w = self._w[k, i]
+            step = quat_exp(basis[:, i:i + 1] * w)
+            out = quat_multiply(out, step)
+            back = _conj(step)
+            rot_omega = _rotate(back, omega)
+            rate = w * d1[:, i:i + 1] / h
+            alpha = _rotate(back, alpha) - np.cross(rate, rot_omega) + w * d2[:, i:i + 1] / h**2
+            omega = rot_omega + rate
+        return out / np.linalg.norm(out, axis=1, keepdims=True), omega, alpha
+
     def __call__(self, t: npt.ArrayLike) -> Array:
         """Unit quaternions ``(len(t), 4)`` at times ``t`` [s] (clamped to the keyframes)."""
         k, u = _segment(self.times, np.atleast_1d(np.asarray(t, dtype=float)))
@@ -174,6 +170,13 @@ class QuaternionSpline:
         for i in range(3):
             out = quat_multiply(out, quat_exp(basis[:, i:i + 1] * self._w[k, i]))
         return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def _rotate(quat: Array, vec: Array) -> Array:
+    """Vectors ``(N, 3)`` turned by unit quaternions ``(N, 4)``."""
+    w, u = quat[:, :1], quat[:, 1:]
+    c = np.cross(u, vec)
+    return vec + 2.0 * w * c + 2.0 * np.cross(u, c)
 
 
 def keyframe_positions(times: npt.ArrayLike, q: npt.ArrayLike, quaternions: Sequence[int],

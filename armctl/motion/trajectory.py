@@ -35,11 +35,20 @@ Sampled = tuple[Array, Array, Array]
 class Trajectory(ABC):
     """A time-parameterised joint motion.
 
+    Positions have :attr:`nq` entries, velocities and accelerations :attr:`dof`: the same for
+    an arm of 1-DOF joints; a ball joint takes a unit quaternion in the position and its angular
+    velocity [rad/s] (three entries, in its moved frame) in the velocity.
+
     Attributes:
-        dof: Number of joints.
+        dof: Number of velocity entries (joints, for an arm of 1-DOF joints).
     """
 
     dof: int
+
+    @property
+    def nq(self) -> int:
+        """Number of position entries (:attr:`dof` unless the arm has ball joints)."""
+        return self.dof
 
     @property
     @abstractmethod
@@ -48,16 +57,16 @@ class Trajectory(ABC):
 
     @abstractmethod
     def sample(self, t: float) -> Sampled:
-        """Position, velocity and acceleration ``(dof,)`` each at time ``t`` [s]."""
+        """Position ``(nq,)``, velocity and acceleration ``(dof,)`` at time ``t`` [s]."""
 
     def sample_many(self, ts: npt.ArrayLike) -> Sampled:
-        """Samples at many times: three ``(N, dof)`` arrays."""
+        """Samples at many times: positions ``(N, nq)``, velocities, accelerations ``(N, dof)``."""
         times = np.asarray(ts, dtype=float).reshape(-1)
-        out = np.empty((3, times.size, self.dof))
+        q = np.empty((times.size, self.nq))
+        out = np.empty((2, times.size, self.dof))
         for k, t in enumerate(times):
-            q, qd, qdd = self.sample(float(t))
-            out[0, k], out[1, k], out[2, k] = q, qd, qdd
-        return out[0], out[1], out[2]
+            q[k], out[0, k], out[1, k] = self.sample(float(t))
+        return q, out[0], out[1]
 
     def breakpoints(self) -> Array:
         """Times [s] where the motion changes piece (segment ends, keyframes)."""
@@ -152,12 +161,22 @@ class PiecewisePolynomial(Trajectory):
 
 
 class Hold(Trajectory):
-    """Standing still at ``q`` for ``duration`` [s] (a dwell)."""
+    """Standing still at ``q`` for ``duration`` [s] (a dwell).
 
-    def __init__(self, q: npt.ArrayLike, duration: float):
+    Args:
+        q: The position ``(nq,)``.
+        duration: How long [s].
+        dof: Velocity entries; ``None``: as many as ``q`` has (an arm without ball joints).
+    """
+
+    def __init__(self, q: npt.ArrayLike, duration: float, dof: int | None = None):
         self._q = np.array(q, dtype=float)
-        self.dof = int(self._q.size)
+        self.dof = int(self._q.size) if dof is None else int(dof)
         self._duration = float(duration)
+
+    @property
+    def nq(self) -> int:  # noqa: D102
+        return int(self._q.size)
 
     @property
     def duration(self) -> float:  # noqa: D102
@@ -185,11 +204,16 @@ class Chain(Trajectory):
             raise ValueError("a chain needs at least one trajectory")
         self.parts = tuple(parts)
         self.dof = parts[0].dof
+        self._nq = parts[0].nq
         self._starts = np.concatenate([[0.0], np.cumsum([p.duration for p in parts])])
 
     @property
     def duration(self) -> float:  # noqa: D102
         return float(self._starts[-1])
+
+    @property
+    def nq(self) -> int:  # noqa: D102
+        return self._nq
 
     @property
     def offsets(self) -> Array:
@@ -212,6 +236,14 @@ class Chain(Trajectory):
         times = np.asarray(ts, dtype=float).reshape(-1)
         idx = np.clip(np.searchsorted(self._starts, times, side="right") - 1, 0,
                       len(self.parts) - 1)
+        if self._nq != self.dof:
+            pos = np.empty((times.size, self._nq))
+            rates = np.empty((2, times.size, self.dof))
+            for k in np.unique(idx):
+                sel = idx == k
+                pos[sel], rates[0, sel], rates[1, sel] = self.parts[k].sample_many(
+                    times[sel] - self._starts[k])
+            return pos, rates[0], rates[1]
         out = np.empty((3, times.size, self.dof))
         for k in np.unique(idx):
             sel = idx == k
@@ -229,6 +261,10 @@ class TimeScaled(Trajectory):
         self.inner = inner
         self.factor = float(factor)
         self.dof = inner.dof
+
+    @property
+    def nq(self) -> int:  # noqa: D102
+        return self.inner.nq
 
     @property
     def duration(self) -> float:  # noqa: D102

@@ -27,17 +27,29 @@ __all__ = ["PlannedLine", "plan_keyframes", "plan_straight_line", "sample_plan"]
 def _ik_for(arm: Arm, program: KeyframeProgram, solver: str) -> IKFunction:
     """IK for pose keyframes: a full pose goal, or a position goal where orientation is free.
 
-    Joints that do not move the keyframes' frame (a gripper) keep their seed value.
+    Joints that do not move the keyframes' frame (a gripper) keep their seed value. The first
+    call runs the solver once with a one-iteration budget first (as ``armctl ik`` does): the
+    first call of a compiled solver loads its kernels, which would otherwise eat into the
+    time budget of the first keyframe's solve.
     """
-    from armctl.ik import PoseGoal, PositionGoal
+    from armctl.ik import IKOptions, PoseGoal, PositionGoal
+    from armctl.ik.registry import solver_info
 
     frame = program.frame or None
     moving = set(arm.chain(frame))
-    still = [i for i in range(arm.dof) if i not in moving]
+    still = [k for i in range(len(arm.joint_names)) if i not in moving
+             for k in range(arm.q_index(i).start, arm.q_index(i).stop)]
+
+    warmed: list[bool] = []
 
     def ik(pose: Array, seed: Array, orientation: bool) -> Array:
         goal: Any = (PoseGoal(pose, frame=frame) if orientation
                      else PositionGoal(pose[:3, 3], frame=frame))
+        if not warmed:  # load the compiled kernels outside the solve's time budget
+            warmed.append(True)
+            if solver_info(solver).capabilities.compiled:
+                arm.ik(goal, q0=seed, solver=solver,
+                       options=IKOptions(max_iterations=1, restarts=0, time_limit=1.0))
         res = arm.ik(goal, q0=seed, solver=solver)
         if not res.success:
             raise NoSolutionError(f"{res.status.value}: closest found is "

@@ -154,3 +154,17 @@ def test_a_joint_vector_with_a_ball_joint(kind: Interpolation):
     assert np.all(np.abs(np.sum(on_knots * ball, axis=1)) > 1 - 1e-12)
     with pytest.raises(PlanningError, match="overlaps another or is outside"):
         keyframe_positions(times, q, [1, 3], kind, t)
+
+
+def test_spline_angular_velocity_and_acceleration_match_finite_differences():
+    """QuaternionSpline.sample's body-frame rates against scipy finite differences."""
+    knots = _wxyz(Rotation.random(5, random_state=2))
+    spline = QuaternionSpline([0.0, 0.7, 1.5, 2.0, 3.1], knots)
+    t = np.linspace(0.01, 3.0, 37)
+    q, omega, alpha = spline.sample(t)
+    assert np.allclose(q, spline(t))
+    h = 1e-5
+    fd = (_rot(spline(t - h)).inv() * _rot(spline(t + h))).as_rotvec() / (2 * h)
+    assert np.abs(fd - omega).max() < 1e-6
+    fd_alpha = (spline.sample(t + h)[1] - spline.sample(t - h)[1]) / (2 * h)
+    assert np.abs(fd_alpha - alpha).max() < 1e-5 * max(1.0, np.abs(alpha).max())
