@@ -6,6 +6,8 @@ armctl's kinematics, so the tests can check armctl against it.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -17,13 +19,22 @@ def _origin(o: dict) -> np.ndarray:
     return t
 
 
-def chain_poses(doc: dict, q: dict[str, float]) -> dict[str, np.ndarray]:
+def by_name(model: Any, q: np.ndarray) -> dict[str, Any]:
+    """Joint name -> value of a joint vector (a ball joint's four quaternion numbers)."""
+    out: dict[str, Any] = {}
+    for j in model.spec.actuated_joints:
+        v = np.asarray(q, float)[model.q_index(j.name)]
+        out[j.name] = float(v[0]) if len(v) == 1 else v
+    return out
+
+
+def chain_poses(doc: dict, q: dict[str, Any]) -> dict[str, np.ndarray]:
     """Pose of every link and named frame of an arm file, from the base outwards.
 
     Args:
         doc: The arm file as read by ``yaml.safe_load``.
-        q: Joint name -> value [rad]; a three-axis ``spherical`` joint ``NAME`` reads
-            ``NAME_1`` .. ``NAME_3``.
+        q: Joint name -> value: an angle [rad] for a revolute joint, the unit quaternion
+            ``(w, x, y, z)`` for a ``ball`` joint (its rotation of the child from rest).
     """
     poses = {doc["base"]: np.eye(4)}
     pending = list(doc["joints"])
@@ -36,10 +47,11 @@ def chain_poses(doc: dict, q: dict[str, float]) -> dict[str, np.ndarray]:
         if j["type"] == "revolute":
             motion[:3, :3] = Rotation.from_rotvec(
                 np.asarray(j["axis"], float) * q[j["name"]]).as_matrix()
-        elif j["type"] == "spherical":  # three axes meeting in one point, NAME_1..3
-            for i, axis in enumerate(j["axes"], start=1):
-                motion[:3, :3] = motion[:3, :3] @ Rotation.from_rotvec(
-                    np.asarray(axis, float) * q[f"{j['name']}_{i}"]).as_matrix()
+        elif j["type"] == "ball":
+            w, x, y, z = np.asarray(q[j["name"]], float)
+            motion[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
+        else:
+            assert j["type"] == "fixed", j
         poses[j["child"]] = poses[j["parent"]] @ _origin(j.get("origin", {})) @ motion
     for f in doc.get("frames", []):
         poses[f["name"]] = poses[f["parent"]] @ _origin(f.get("origin", {}))

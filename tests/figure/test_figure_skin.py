@@ -13,11 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from figure_chain import chain_poses
+from figure_chain import by_name, chain_poses
 from scipy.spatial.transform import Rotation
 
 from armctl.config import bundled_configs_dir, load_spec
-from armctl.config.schema import JointType
 from armctl.errors import ConfigError
 from armctl.kinematics.model import KinematicModel
 from armctl.render.binding import BoundGeometry
@@ -59,11 +58,10 @@ def test_posed_vertices_equal_a_chain_of_matrices(figure: KinematicModel, tmp_pa
     assert drawn_count >= len(skin.vertices)
     rng = np.random.default_rng(5)
     assert skin.bind_pose == "tpose"
-    bind = chain_poses(doc, {j.name: 0.0 for j in figure.spec.actuated_joints})
+    bind = chain_poses(doc, by_name(figure, figure.named_pose("tpose")))
     for _ in range(3):
-        q = rng.uniform(figure.lower, figure.upper)
-        poses = chain_poses(doc, dict(zip([j.name for j in figure.spec.actuated_joints], q,
-                                     strict=True)))
+        q = figure.sample(rng)
+        poses = chain_poses(doc, by_name(figure, q))
         expected = np.array([(poses[b] @ np.linalg.inv(bind[b]) @ np.append(v, 1.0))[:3]
                              for v, b in zip(skin.vertices, skin.vertex_link, strict=True)])
         drawn = geo.world_vertices(q)
@@ -85,8 +83,8 @@ def test_posed_vertices_equal_a_chain_of_matrices(figure: KinematicModel, tmp_pa
 def test_the_mesh_follows_its_bones(figure: KinematicModel):
     geo = BoundGeometry(figure)
     rng = np.random.default_rng(9)
-    q0 = np.zeros(figure.dof)
-    q1 = rng.uniform(figure.lower, figure.upper)
+    q0 = figure.named_pose("tpose")
+    q1 = figure.sample(rng)
     a, b = geo.world_vertices(q0), geo.world_vertices(q1)
     moved = np.linalg.norm(a - b, axis=1)
     assert moved.max() > 0.3  # it moves
@@ -155,7 +153,7 @@ def test_the_writer_keeps_the_skin(tmp_path: Path, figure: KinematicModel):
     out.write_text(dump_arm_yaml(figure.spec, out), encoding="utf-8")
     again = KinematicModel(load_spec(out))
     assert again.spec.skin is not None and again.spec.skin.bind_pose == "tpose"
-    q = np.random.default_rng(2).uniform(figure.lower, figure.upper)
+    q = figure.sample(np.random.default_rng(2))
     a, b = BoundGeometry(again).world_vertices(q), BoundGeometry(figure).world_vertices(q)
     assert a.shape == b.shape  # the same vertices, the moved pelvis' part drawn last
     assert np.linalg.norm(a[:, None] - b[None], axis=2).min(axis=1).max() < 1e-9
@@ -174,12 +172,11 @@ def test_a_bind_pose_other_than_zero(tmp_path: Path, figure: KinematicModel):
     d = np.linalg.norm(skin.vertices[:, None] - drawn[None], axis=2).min(axis=1)
     assert d.max() < 1e-9
     # at the T-pose each vertex is moved by T_b(0) T_b(stand)^-1 (chain of matrices)
-    names = [j.name for j in other.spec.actuated_joints]
-    stand = chain_poses(doc, dict(zip(names, other.named_pose("stand"), strict=True)))
-    zero = chain_poses(doc, dict.fromkeys(names, 0.0))
+    stand = chain_poses(doc, by_name(other, other.named_pose("stand")))
+    zero = chain_poses(doc, by_name(other, other.named_pose("tpose")))
     want = np.array([(zero[b] @ np.linalg.inv(stand[b]) @ np.append(v, 1.0))[:3]
                      for v, b in zip(skin.vertices, skin.vertex_link, strict=True)])
-    drawn = BoundGeometry(other).world_vertices(np.zeros(other.dof))
+    drawn = BoundGeometry(other).world_vertices(other.named_pose("tpose"))
     d = np.linalg.norm(want[:, None] - drawn[None], axis=2).min(axis=1)
     assert d.max() < 1e-9
 
@@ -224,52 +221,34 @@ def test_a_skin_on_an_arm_with_a_ball_joint(tmp_path: Path):
         assert np.linalg.norm(drawn - want, axis=1).min() < 1e-12
 
 
-def _ball_figure(folder: Path) -> Path:
-    """The figure with each three-axis shoulder and hip written as one ball joint."""
-    doc = yaml.safe_load(FIGURE.read_text(encoding="utf-8"))
-    joints = []
-    for j in doc["joints"]:
-        name = j["name"]
-        if name.endswith(("_1", "_2", "_3")) and name[:-2].endswith(("shoulder", "hip")):
-            if name.endswith("_1"):
-                twist = {"left_shoulder": [0, 1, 0], "right_shoulder": [0, -1, 0]}
-                joints.append({"name": name[:-2], "type": "ball", "parent": j["parent"],
-                               "child": name[:-2].replace("shoulder", "upper_arm")
-                               .replace("hip", "thigh"), "origin": j["origin"],
-                               "axis": twist.get(name[:-2], [0, 0, -1])})
-            continue
-        joints.append(j)
-    doc["joints"] = joints
-    doc["links"] = [lk for lk in doc["links"] if "__" not in lk["name"]]
-    for key in ("poses", "collision"):
-        doc.pop(key)
-    doc["skin"].pop("bind_pose")
-    shutil.copyfile(SKIN, folder / SKIN.name)
-    out = folder / "figure_ball.yaml"
-    out.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
-    return out
-
-
-def test_the_skin_follows_ball_joints_as_it_follows_three_axes(tmp_path: Path,
-                                                               figure: KinematicModel):
-    """The figure with ball shoulders and hips draws the same skin as with three axes, for
-    the quaternion of the three axes' rotation (scipy)."""
-    ball = KinematicModel(load_spec(_ball_figure(tmp_path)))
-    assert ball.nq == figure.dof + 4 and ball.nv == figure.dof
-    names = [j.name for j in figure.spec.actuated_joints]
-    q3 = np.random.default_rng(8).uniform(figure.lower, figure.upper)
-    qb = np.zeros(ball.nq)
-    for j in ball.spec.actuated_joints:
-        idx = ball.q_index(j.name)
-        if j.type is JointType.BALL:
-            r = Rotation.identity()
-            for i in (1, 2, 3):
-                spec = figure.spec.joint(f"{j.name}_{i}")
-                r = r * Rotation.from_rotvec(np.asarray(spec.axis) * q3[names.index(spec.name)])
-            qb[idx] = np.roll(r.as_quat(), 1)
-        else:
-            qb[idx] = q3[names.index(j.name)]
-    a = BoundGeometry(ball).world_vertices(qb)
-    b = BoundGeometry(figure).world_vertices(q3)
-    assert a.shape == b.shape
-    assert np.linalg.norm(a[:, None] - b[None], axis=2).min(axis=1).max() < 1e-9
+def test_the_skin_follows_a_ball_joint_through_the_old_gimbal_lock(figure: KinematicModel):
+    """A shoulder turned so that the upper arm points straight forward (where three axes
+    x-z-y lock: their middle angle at 90 deg), then twisted about the bone and swung on: the
+    skin of the arm follows the independent chain at every step."""
+    doc = yaml.safe_load(figure.spec.file.read_text(encoding="utf-8"))
+    geo = BoundGeometry(figure)
+    bind = chain_poses(doc, by_name(figure, figure.named_pose("tpose")))
+    arm_bones = {"left_upper_arm", "left_forearm", "left_hand"}
+    sl = figure.q_index("left_shoulder")
+    forward = Rotation.from_rotvec([0, 0, np.pi / 2])  # +y (the bone) onto +x (forward)
+    for extra in (Rotation.identity(), Rotation.from_rotvec([0, 0.7, 0]),
+                  Rotation.from_rotvec([0.3, 0, 0.2])):
+        q = figure.named_pose("tpose")
+        x, y, z, w = (forward * extra).as_quat()
+        q[sl] = [w, x, y, z]
+        q = figure.clip(q)
+        poses = chain_poses(doc, by_name(figure, q))
+        drawn = geo.world_vertices(q)
+        skin = figure.spec.skin
+        assert skin is not None
+        want = np.array([(poses[b] @ np.linalg.inv(bind[b]) @ np.append(v, 1.0))[:3]
+                         for v, b in zip(skin.vertices, skin.vertex_link, strict=True)
+                         if b in arm_bones])
+        d = np.linalg.norm(want[:, None] - drawn[None], axis=2).min(axis=1)
+        assert d.max() < 1e-9
+    # the shoulder's three tangent columns of the hand's Jacobian keep full rank there
+    q = figure.named_pose("tpose")
+    x, y, z, w = forward.as_quat()
+    q[sl] = [w, x, y, z]
+    jac = figure.jacobian(q, "left_palm")[3:, figure.v_index("left_shoulder")]
+    np.testing.assert_allclose(np.linalg.svd(jac, compute_uv=False), [1, 1, 1], atol=1e-12)
