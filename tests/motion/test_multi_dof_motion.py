@@ -17,7 +17,6 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 import armctl
-from armctl.config import bundled_configs_dir
 from armctl.errors import ConfigError, InputError
 from armctl.ik import IKOptions, PoseGoal, PositionGoal
 from armctl.motion import (
@@ -295,34 +294,9 @@ def test_dwell_gripperless_stops_loops_and_pose_keyframes(arm: armctl.Arm) -> No
     assert np.abs(np.diff(q[:, 4:], axis=0)).max() <= 1.0 * step * 1.01
 
 
-def _ball_figure(folder: Path) -> Path:
-    """The bundled figure with each three-axis shoulder and hip as one ball joint."""
-    doc = yaml.safe_load((bundled_configs_dir() / "figure.yaml").read_text(encoding="utf-8"))
-    joints = []
-    for j in doc["joints"]:
-        name = j["name"]
-        if name.endswith(("_1", "_2", "_3")) and name[:-2].endswith(("shoulder", "hip")):
-            if name.endswith("_1"):
-                joints.append({"name": name[:-2], "type": "ball", "parent": j["parent"],
-                               "child": name[:-2].replace("shoulder", "upper_arm")
-                               .replace("hip", "thigh"), "origin": j["origin"]})
-            continue
-        joints.append(j)
-    doc["joints"] = joints
-    doc["links"] = [lk for lk in doc["links"] if "__" not in lk["name"]]
-    for key in ("poses", "skin", "collision"):  # the allowed pairs name the removed links
-        doc.pop(key, None)
-    out = folder / "figure_ball.yaml"
-    out.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
-    return out
-
-
 @pytest.fixture(scope="module")
-def figure(tmp_path_factory: pytest.TempPathFactory) -> armctl.Arm:
-    bundled = armctl.load_arm("figure")
-    if any(t.value == "ball" for t in bundled.joint_types):
-        return bundled  # the bundled figure already has ball joints
-    return armctl.load_arm(_ball_figure(tmp_path_factory.mktemp("figure")))
+def figure() -> armctl.Arm:
+    return armctl.load_arm("figure")  # ball joints at its shoulders and hips
 
 
 def test_a_walk_of_the_figure_with_ball_hips_and_shoulders(figure: armctl.Arm,
@@ -351,7 +325,9 @@ def test_a_walk_of_the_figure_with_ball_hips_and_shoulders(figure: armctl.Arm,
         sl = figure.q_index(name)
         assert np.allclose(np.linalg.norm(q[:, sl], axis=1), 1.0, atol=1e-12)
         fd = _body_rates(traj, ts, sl)
-        assert np.linalg.norm(fd, axis=1).max() <= 1.0 * (1 + 1e-3)  # default 1 rad/s
+        limit = figure.spec.joint(name).limits.velocity
+        limit = limit if math.isfinite(limit) else 1.0  # the rotary default [rad/s]
+        assert np.linalg.norm(fd, axis=1).max() <= limit * (1 + 1e-3)
     hip = figure.q_index("left_hip")
     step1 = next(w for w in plan.waypoints if w.name == "step1")
     turn = _rot(traj.sample(step1.time)[0][hip])

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from scipy.spatial.transform import Rotation
 
 import armctl
@@ -25,7 +24,6 @@ from armctl.ik.nlp import KeepOutSphere, NLPOptions, OnPlane
 from armctl.kinematics.symbolic import ball_limit_rows, fk_function
 
 BALL_ARM = Path(__file__).parents[2] / "data" / "ball_arm.yaml"
-FIGURE = Path(__file__).parents[3] / "configs" / "figure.yaml"
 
 
 def _write(folder: Path, text: str, name: str = "arm.yaml") -> Arm:
@@ -158,27 +156,8 @@ def test_the_old_gimbal_lock_angle(tmp_path: Path) -> None:
     assert arm.within_limits(res.q)
 
 
-def test_two_end_effectors_of_the_figure_with_ball_shoulders_and_hips(tmp_path: Path) -> None:
-    doc = yaml.safe_load(FIGURE.read_text(encoding="utf-8"))
-    joints = []
-    for j in doc["joints"]:
-        name = j["name"]
-        if name.endswith(("_1", "_2", "_3")) and name[:-2].endswith(("shoulder", "hip")):
-            if name.endswith("_1"):
-                twist = {"left_shoulder": [0, 1, 0], "right_shoulder": [0, -1, 0]}
-                joints.append({"name": name[:-2], "type": "ball", "parent": j["parent"],
-                               "child": name[:-2].replace("shoulder", "upper_arm")
-                               .replace("hip", "thigh"), "origin": j["origin"],
-                               "axis": twist.get(name[:-2], [0, 0, -1]),
-                               "limits": {"swing": "100 deg",
-                                          "twist": {"lower": "-80 deg", "upper": "80 deg"}}})
-            continue
-        joints.append(j)
-    doc["joints"] = joints
-    doc["links"] = [lk for lk in doc["links"] if "__" not in lk["name"]]
-    for key in ("poses", "collision", "skin"):
-        doc.pop(key, None)
-    arm = _write(tmp_path, yaml.safe_dump(doc, sort_keys=False), "figure_ball.yaml")
+def test_two_end_effectors_of_the_figure_with_ball_shoulders_and_hips() -> None:
+    arm = armctl.load_arm("figure")
     assert len(arm.multi_dof_joints) == 4
     rng = np.random.default_rng(2)
     for seed in range(2):
