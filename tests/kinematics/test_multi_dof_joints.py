@@ -285,14 +285,11 @@ def test_what_supports_1_dof_joints_only_refuses_clearly(tmp_path: Path) -> None
 
     with pytest.raises(InputError, match=r"null-space criteria .* 1-DOF joints only"):
         arm.ik(goal, solver="dls", options=IKOptions(nullspace=NullSpace()))
-    from armctl.collision import CollisionModel
     from armctl.ik.analytic.errors import NoDecompositionError
     from armctl.motion.limits import MotionLimits
 
     with pytest.raises(NoDecompositionError, match="multi-DOF joint"):
         arm.ik_all(np.eye(4))
-    with pytest.raises(InputError, match="collision checker supports 1-DOF"):
-        CollisionModel.of(arm)
     with pytest.raises(InputError, match=r"motion planning .* 1-DOF"):
         MotionLimits.from_model(arm)
     from armctl.ik.batch import solve_batch
