@@ -317,6 +317,7 @@ def test_random_arcs_agree_with_dense_samples(arm: KinematicModel, cm: Collision
     rng = np.random.default_rng(5)
     qs = arm.sample(rng, 400)
     free = qs[cm.free_batch(qs)]
+    seen = {True: 0, False: 0}
     for k in range(0, 24, 2):
         a, b = free[k], free[k + 1]
         us, arc = _arc(arm, a, b, 1501)
@@ -328,6 +329,22 @@ def test_random_arcs_agree_with_dense_samples(arm: KinematicModel, cm: Collision
             assert dense.all()
         else:
             assert cm.slacks(hit.q).min() < 1e-4
+        seen[hit is None] += 1
+        # the same arc as a sampled motion (20 samples, travels bounded by the tangent step)
+        span = np.abs(arm.difference(a, b))
+        ts = np.linspace(0.0, 1.0, 20)
+
+        def refine(t0: float, t1: float, a=a, b=b, span=span):
+            sub = np.linspace(t0, t1, 9)
+            return sub, np.array([arm.interpolate(a, b, float(t)) for t in sub]), np.tile(
+                span * (sub[1] - sub[0]), (8, 1))
+
+        found = cm.first_contact_on_samples(ts, _arc(arm, a, b, 20)[1],
+                                            np.tile(span / 19, (19, 1)), refine, depth=20)
+        assert (found is None) == (hit is None)
+        if found is not None and not dense.all():
+            assert found.time <= us[int(np.argmin(dense))] + 1e-9
+    assert min(seen.values()) >= 2  # lines in contact and free lines were both checked
 
 
 def test_universal_joints_alone_take_the_compiled_line(tmp_path: Path) -> None:
@@ -349,7 +366,8 @@ def test_universal_joints_alone_take_the_compiled_line(tmp_path: Path) -> None:
     for q in qs[:20]:
         np.testing.assert_allclose(cm.slacks(q) + padding(cm), truth_distances(cm, doc, q),
                                    atol=2e-6)
-    for k in range(0, 16, 2):
+    seen = {True: 0, False: 0}
+    for k in range(0, 24, 2):
         a, b = free[k], free[k + 1]
         us = np.linspace(0.0, 1.0, 1501)
         dense = cm.free_batch(a + us[:, None] * (b - a))
@@ -358,6 +376,8 @@ def test_universal_joints_alone_take_the_compiled_line(tmp_path: Path) -> None:
             assert dense.all()
         if not dense.all():
             assert hit is not None and hit.time <= us[int(np.argmin(dense))] + 1e-9
+        seen[hit is None] += 1
+    assert min(seen.values()) >= 2  # lines in contact and free lines were both checked
 
 
 # ---- the figure with ball shoulders and hips --------------------------------------------------
@@ -469,3 +489,34 @@ def test_armctl_collisions_on_an_arm_with_ball_joints(tmp_path: Path,
     arm = KinematicModel(load_spec(path))
     assert arm.spec.collision is not None
     assert len(arm.spec.collision.allowed) == len(data["allowed"])
+
+
+def test_the_search_steps_stay_inside_a_ball_joints_cone_and_twist(tmp_path: Path) -> None:
+    """The local search of the matrix moves a limited ball joint by rotation vectors and keeps
+    it inside its limits; the swing it measures is the angle of the turned axis (scipy)."""
+    from armctl.collision.allowed import _moved, _swing_twist_batch
+
+    doc = yaml.safe_load(ARM.read_text(encoding="utf-8"))
+    doc["joints"][0]["limits"] = {"swing": "50 deg", "twist": {"lower": "-40 deg",
+                                                             "upper": "30 deg"}}
+    doc.pop("poses")
+    path = tmp_path / "limited.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    arm = KinematicModel(load_spec(path))
+    rng = np.random.default_rng(9)
+    cur = arm.sample(rng, 300)
+    assert all(arm.within_limits(q) for q in cur)
+    moved = _moved(arm, cur, rng.normal(scale=0.6, size=(300, arm.nv)))
+    assert all(arm.within_limits(q, tol=1e-9) for q in moved)
+    sl = arm.q_index("shoulder")
+    assert np.abs(np.linalg.norm(moved[:, sl], axis=1) - 1.0).max() < 1e-12
+    assert (np.abs(moved[:, sl] - cur[:, sl]).max(axis=1) > 1e-6).mean() > 0.5  # they moved
+    quats = Rotation.random(500, random_state=3)
+    axis = np.array([0.0, 0.0, 1.0])
+    swing, twist = _swing_twist_batch(np.roll(quats.as_quat(), 1, axis=1), axis)
+    np.testing.assert_allclose(swing, np.arccos(np.clip(quats.apply(axis) @ axis, -1, 1)),
+                               atol=1e-7)
+    assert np.all(np.abs(twist) <= math.pi)
+    unit = Rotation.from_rotvec(np.outer(rng.uniform(-3, 3, 50), axis))  # pure twists
+    _, t = _swing_twist_batch(np.roll(unit.as_quat(), 1, axis=1), axis)
+    np.testing.assert_allclose(t, unit.as_rotvec() @ axis, atol=1e-12)
