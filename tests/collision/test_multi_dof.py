@@ -520,3 +520,21 @@ def test_the_search_steps_stay_inside_a_ball_joints_cone_and_twist(tmp_path: Pat
     unit = Rotation.from_rotvec(np.outer(rng.uniform(-3, 3, 50), axis))  # pure twists
     _, t = _swing_twist_batch(np.roll(unit.as_quat(), 1, axis=1), axis)
     np.testing.assert_allclose(t, unit.as_rotvec() @ axis, atol=1e-12)
+
+
+def test_an_arm_lying_on_the_table_may_rise_through_its_ball_joint(arm: KinematicModel,
+                                                                   cm: CollisionModel) -> None:
+    """Laid down by its ball shoulder, the arm is in contact with the table; the model that
+    lets it escape allows that contact, then rising out of it, never going deeper."""
+    def lean(angle: float) -> np.ndarray:
+        q = arm.neutral()
+        q[arm.q_index("shoulder")] = np.roll(Rotation.from_rotvec([0.0, angle, 0.0]).as_quat(), 1)
+        return q
+
+    down = lean(-1.75)
+    touching = cm.contact(down)
+    assert touching is not None and touching.b == "table"
+    esc = cm.escaping(down)
+    assert esc.free(down) and esc.segment_free(down, lean(-1.2))
+    assert not esc.free(lean(-1.9))  # deeper into the table
+    assert esc.first_contact_on_segment(down, lean(-1.9)) is not None
