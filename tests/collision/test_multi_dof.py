@@ -8,7 +8,10 @@
 * Distances: every checked pair's distance against coal, the capsules and obstacles posed by
   that scipy chain (the table against the lowest point of a capsule, by hand); ``free``,
   ``contact`` and ``clearance`` against the same distances.
-* Continuous checks along the shortest arc of a ball joint, against dense samples of the arc.
+* The exact narrow phase: free exactly when the real shapes (a box, a cylinder, spheres,
+  capsules) posed by the scipy chain keep their paddings, in coal.
+* Continuous checks along the shortest arc of a ball joint, against dense samples of the arc;
+  an arm laid on the table by its ball joint may rise, not sink.
 * The figure with ball shoulders and hips: the same distances as the bundled three-axis figure
   at the same rotations, and the same distances as coal.
 * The allowed-collision matrix and ``armctl collisions`` on the test arm.
@@ -538,3 +541,77 @@ def test_an_arm_lying_on_the_table_may_rise_through_its_ball_joint(arm: Kinemati
     assert esc.free(down) and esc.segment_free(down, lean(-1.2))
     assert not esc.free(lean(-1.9))  # deeper into the table
     assert esc.first_contact_on_segment(down, lean(-1.9)) is not None
+
+
+# ---- the exact narrow phase -------------------------------------------------------------------
+def _shape_geometry(shape: dict, pose: np.ndarray):
+    """A link or obstacle shape of the arm file in coal, its pose, and its lowest z [m]."""
+    t = pose @ _origin(shape.get("origin"))
+    kind = shape["shape"]
+    z = t[:3, 2]
+    if kind == "box":
+        half = np.asarray(shape["size"], float) / 2
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        low = float(((corners * half) @ t[:3, :3].T + t[:3, 3])[:, 2].min())
+        return coal.Box(*[float(v) for v in shape["size"]]), t, low
+    if kind == "cylinder":
+        r, h = float(shape["radius"]), float(shape["length"])
+        low = t[2, 3] - abs(z[2]) * h / 2 - r * math.sqrt(max(0.0, 1.0 - z[2] ** 2))
+        return coal.Cylinder(r, h), t, low
+    r = float(shape["radius"])
+    h = float(shape.get("length", 0.0))
+    return coal.Capsule(r, h), t, t[2, 3] - abs(z[2]) * h / 2 - r
+
+
+def shape_distances(cm: CollisionModel, doc: dict, q: np.ndarray) -> dict[frozenset, float]:
+    """Per checked pair of names, the least distance between their real shapes [m]."""
+    poses = chain_poses(doc, _values(cm.model, q))
+    links = {lk["name"]: [_shape_geometry(s, poses[lk["name"]]) for s in lk["collision"]]
+             for lk in doc["links"]}
+    obstacles = {ob["name"]: _shape_geometry(ob, np.eye(4))
+                 for ob in (doc.get("scene") or {}).get("obstacles", [])}
+    out: dict[frozenset, float] = {}
+    for idx in range(cm.pair_count):
+        a, b, kind = cm.pair_names(idx)
+        key = frozenset((a, b))
+        if key in out:
+            continue
+        if b == "table":
+            out[key] = min(low for _, _, low in links[a]) - cm.scene.table.height
+            continue
+        others = links[b] if kind is ContactKind.SELF else [obstacles[b]]
+        out[key] = min(_coal_distance(ga, ta, gb, tb)
+                       for ga, ta, _ in links[a] for gb, tb, _ in others)
+    return out
+
+
+def test_the_exact_narrow_phase_agrees_with_the_real_shapes(arm: KinematicModel,
+                                                            doc: dict) -> None:
+    """With ``exact``, a configuration is free exactly when the real shapes (a box, a cylinder,
+    spheres and capsules) keep their paddings, posed by the independent chain."""
+    scene = CollisionModel.of(arm).scene
+    exact = CollisionModel.of(arm, SceneSpec(table=scene.table, obstacles=scene.obstacles,
+                                             padding=scene.padding, exact=True),
+                              adjacent_only(arm))
+    assert exact.exact is not None
+    capsules = CollisionModel.of(arm, SceneSpec(table=scene.table, obstacles=scene.obstacles,
+                                                padding=scene.padding), adjacent_only(arm))
+    many = far_configurations(arm, np.random.default_rng(12), 3000)
+    by_capsules, by_shapes = capsules.free_batch(many), exact.free_batch(many)
+    assert not (by_capsules & ~by_shapes).any()  # the capsules contain the shapes
+    changed = np.flatnonzero(by_shapes & ~by_capsules)
+    assert len(changed) >= 10  # the real shapes decide some answers
+    qs = np.concatenate([many[changed[:30]], many[:60]])
+    seen = {True: 0, False: 0}
+    for q in qs:
+        truth = shape_distances(exact, doc, q)
+        margin = min(d - (exact.scene.padding if "table" in k or k & set(exact.obstacles)
+                          else 0.0) for k, d in truth.items())
+        least = exact.clearance(q)
+        assert least is not None
+        assert least.distance <= truth[frozenset((least.a, least.b))] + 1e-6  # a lower bound
+        if abs(margin) > 1e-6:
+            want = bool(margin > 0)
+            assert exact.free(q) is want
+            seen[want] += 1
+    assert min(seen.values()) > 10
