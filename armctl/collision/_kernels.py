@@ -2,7 +2,11 @@
 
 numba compiles them when the first one is read from this module (see
 :mod:`armctl.kinematics._lazy_kernels`); :func:`interpreted` runs them without numba. The
-joint frames are computed as the kinematics kernels' ``_step`` computes them.
+joint frames are computed as the kinematics kernels' ``_step`` computes them (a copy, kept for
+speed on arms of 1-DOF joints); an arm with universal or ball joints is stepped by the
+kinematics kernels' own ``_step_any`` (:func:`_place_multi`). Each check tells the two apart
+once per call (``q`` has more entries than the arm has joints) and hands its body a flag, so
+that the code that places the capsules of a 1-DOF arm is the same as before multi-DOF joints.
 
 Everything a check needs is packed by :class:`armctl.collision.model.CollisionModel` into two
 arrays, so that a call passes three arguments (the joint vector, ``F`` and ``I``):
@@ -14,13 +18,14 @@ arrays, so that a call passes three arguments (the joint vector, ``F`` and ``I``
   (capsule, obstacle); the visiting block made by :func:`pair_records` (the capsules in the
   order the checks visit them, each capsule's pair with the table, a capsule-by-obstacle
   table of pair indices, the self pairs in visiting order).
-* ``F`` (float64, 2-D, ``max(WIDTH, n)`` columns): the joints' rows of
-  :attr:`~armctl.kinematics.compiled_tree.CompiledTree.joints` (16 columns); per capsule its
+* ``F`` (float64, 2-D, ``max(WIDTH, nv)`` columns): the joints' rows of
+  :attr:`~armctl.kinematics.compiled_tree.CompiledTree.joints` (all 22 columns); per capsule its
   end points in the frame of its joint and its radius (7 columns); per capsule its lever row
-  (how far a point of it moves per unit of each joint's travel, an upper bound over every
-  configuration: [m/rad] for revolute and 1 for prismatic joints, 0 for joints that do not
-  carry it); per obstacle its data (below), in columns 16-19 a bounding sphere (centre,
-  radius; an infinite radius for the table) and in columns 20-25 its axis-aligned bounding
+  (one column per tangent entry: how far a point of it moves per unit of travel of that entry,
+  an upper bound over every configuration: [m/rad] for rotations, 1 for prismatic joints, 0
+  for joints that do not carry it; a universal joint has two entries, a ball joint three);
+  per obstacle its data (below), in columns 16-19 a bounding sphere (centre, radius; an
+  infinite radius for the table) and in columns 20-25 its axis-aligned bounding
   box in the base frame (lower corner, upper corner; :func:`obstacle_aabb`); one row with the
   paddings (scene, self) [m]; then the pairs' allowances, row after row (how much closer than
   its padding a pair may come [m]: 0, except for pairs that a motion starts in contact with,
@@ -56,6 +61,9 @@ import numpy.typing as npt
 from armctl.kinematics._lazy_kernels import KernelSet
 
 _ks = KernelSet(__name__)
+#: The kinematics kernels' joint step (any kind of joint), for arms with universal or ball joints.
+_ks.borrow("_step_any", "armctl.kinematics._kernels", "_step_any")
+_step_any: Any = None  # the borrowed kernel, in place once the kernels are compiled
 
 #: Header entries of ``I``.
 H_N, H_K, H_P, H_O, H_S = 0, 1, 2, 3, 4  # joints, capsules, self pairs, obstacles, scene pairs
@@ -207,28 +215,12 @@ def _frame_step(t: tuple[float, ...], r: tuple[float, ...], qj: float) -> tuple[
             a20 * r02 + a21 * r12 + a22 * r22, p2)
 
 
-@_ks.kernel(cache=True, nogil=True, error_model="numpy")
-def _place(q: np.ndarray, F: np.ndarray, I: np.ndarray, T: np.ndarray,  # noqa: E741
-           C: np.ndarray) -> None:
-    """Joint frames ``T`` (n, 12: 3x4 row-major) and world capsules ``C`` (:data:`CW`, k) at ``q``.
-
-    ``C`` per capsule (column): ends a, b, radius, bounding box (lower corner, upper corner), b - a.
-    """
-    n, k = I[H_N], I[H_K]
-    par, cb, cap = I[H_PAR], I[H_CB], I[H_CAP]
-    for j in range(n):
-        p = I[par + j]
-        if p < 0:
-            t = (1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0)
-        else:
-            t = (T[p, 0], T[p, 1], T[p, 2], T[p, 3], T[p, 4], T[p, 5], T[p, 6], T[p, 7],
-                 T[p, 8], T[p, 9], T[p, 10], T[p, 11])
-        r = (F[j, 0], F[j, 1], F[j, 2], F[j, 3], F[j, 4], F[j, 5], F[j, 6], F[j, 7], F[j, 8],
-             F[j, 9], F[j, 10], F[j, 11], F[j, 12], F[j, 13], F[j, 14], F[j, 15])
-        u = _frame_step(t, r, q[j])
-        T[j, 0], T[j, 1], T[j, 2], T[j, 3] = u[0], u[1], u[2], u[3]
-        T[j, 4], T[j, 5], T[j, 6], T[j, 7] = u[4], u[5], u[6], u[7]
-        T[j, 8], T[j, 9], T[j, 10], T[j, 11] = u[8], u[9], u[10], u[11]
+@_ks.kernel(cache=True, nogil=True, error_model="numpy", inline="always")
+def _place_capsules(F: np.ndarray, I: np.ndarray, T: np.ndarray,  # noqa: E741
+                    C: np.ndarray) -> None:
+    """World capsules ``C`` (:data:`CW`, k) on the joint frames ``T`` (see :func:`_place`)."""
+    k = I[H_K]
+    cb, cap = I[H_CB], I[H_CAP]
     for c in range(k):
         row = cap + c
         b = I[cb + c]
@@ -255,6 +247,61 @@ def _place(q: np.ndarray, F: np.ndarray, I: np.ndarray, T: np.ndarray,  # noqa: 
         C[11, c] = max(a1, b1) + wide
         C[12, c] = max(a2, b2) + wide
         C[13, c], C[14, c], C[15, c] = b0 - a0, b1 - a1, b2 - a2
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _place_multi(q: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
+                 T: np.ndarray) -> None:
+    """Joint frames ``T`` (n, 12) of an arm with universal or ball joints at ``q`` (``nq``).
+
+    Each joint is stepped by the kinematics kernels' ``_step_any`` (its row of ``F`` holds the
+    whole row of the compiled tree), so the frames are those of the forward kinematics.
+    """
+    par = I[H_PAR]
+    t = np.empty((3, 4))
+    for j in range(I[H_N]):
+        p = I[par + j]
+        for r in range(3):
+            for c in range(4):
+                t[r, c] = (1.0 if r == c else 0.0) if p < 0 else T[p, 4 * r + c]
+        _step_any(t, F[j], q)
+        for r in range(3):
+            for c in range(4):
+                T[j, 4 * r + c] = t[r, c]
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _place(q: np.ndarray, F: np.ndarray, I: np.ndarray, T: np.ndarray,  # noqa: E741
+           C: np.ndarray) -> None:
+    """Joint frames ``T`` (n, 12: 3x4 row-major) and world capsules ``C`` (:data:`CW`, k) at ``q``.
+
+    ``C`` per capsule (column): ends a, b, radius, bounding box (lower corner, upper corner), b - a.
+    For arms of 1-DOF joints (:func:`_place_any` places the others).
+    """
+    n = I[H_N]
+    par = I[H_PAR]
+    for j in range(n):
+        p = I[par + j]
+        if p < 0:
+            t = (1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+        else:
+            t = (T[p, 0], T[p, 1], T[p, 2], T[p, 3], T[p, 4], T[p, 5], T[p, 6], T[p, 7],
+                 T[p, 8], T[p, 9], T[p, 10], T[p, 11])
+        r = (F[j, 0], F[j, 1], F[j, 2], F[j, 3], F[j, 4], F[j, 5], F[j, 6], F[j, 7], F[j, 8],
+             F[j, 9], F[j, 10], F[j, 11], F[j, 12], F[j, 13], F[j, 14], F[j, 15])
+        u = _frame_step(t, r, q[j])
+        T[j, 0], T[j, 1], T[j, 2], T[j, 3] = u[0], u[1], u[2], u[3]
+        T[j, 4], T[j, 5], T[j, 6], T[j, 7] = u[4], u[5], u[6], u[7]
+        T[j, 8], T[j, 9], T[j, 10], T[j, 11] = u[8], u[9], u[10], u[11]
+    _place_capsules(F, I, T, C)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _place_any(q: np.ndarray, F: np.ndarray, I: np.ndarray, T: np.ndarray,  # noqa: E741
+               C: np.ndarray) -> None:
+    """:func:`_place` for an arm with universal or ball joints (``q`` of ``nq`` entries)."""
+    _place_multi(q, F, I, T)
+    _place_capsules(F, I, T, C)
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
@@ -644,6 +691,19 @@ def _slacks_placed(C: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
 
 # ---- checks -----------------------------------------------------------------------------------
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _min_slack(q: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
+               stop_below: float, multi: bool) -> tuple[float, int, float]:
+    """:func:`min_slack`, with :func:`_place_any` for ``multi``."""
+    T, C, O, L = _scratch(I)  # noqa: E741
+    _obstacle_boxes(F, I, O)
+    if multi:
+        _place_any(q, F, I, T, C)
+    else:
+        _place(q, F, I, T, C)
+    return _scan(C, F, I, O, L, _INF, stop_below)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def min_slack(q: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
               stop_below: float) -> tuple[float, int, float]:
     """The least slack over the checked pairs at ``q``: ``(slack, pair, distance)`` [m].
@@ -651,37 +711,59 @@ def min_slack(q: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
     Stops at the first pair whose slack is below ``stop_below`` (``-inf``: never). ``pair`` is
     -1 when nothing is checked.
     """
-    T, C, O, L = _scratch(I)  # noqa: E741
-    _obstacle_boxes(F, I, O)
-    _place(q, F, I, T, C)
-    return _scan(C, F, I, O, L, _INF, stop_below)
+    if q.shape[0] != I[H_N]:  # universal or ball joints: q has more entries than joints
+        return _min_slack(q, F, I, stop_below, True)
+    return _min_slack(q, F, I, stop_below, False)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _slacks(q: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
+            out: np.ndarray, multi: bool) -> None:
+    """:func:`slacks`, with :func:`_place_any` for ``multi``."""
+    T, C, _, L = _scratch(I)
+    if multi:
+        _place_any(q, F, I, T, C)
+    else:
+        _place(q, F, I, T, C)
+    _slacks_placed(C, F, I, L, False, out)
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def slacks(q: np.ndarray, F: np.ndarray, I: np.ndarray, out: np.ndarray) -> None:  # noqa: E741
     """Every checked pair's slack at ``q`` into ``out`` (self pairs, then scene pairs) [m]."""
+    if q.shape[0] != I[H_N]:  # universal or ball joints: q has more entries than joints
+        _slacks(q, F, I, out, True)
+        return
+    _slacks(q, F, I, out, False)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _slacks_batch(qs: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
+                  out: np.ndarray, multi: bool) -> None:
+    """:func:`slacks_batch`, with :func:`_place_any` for ``multi``."""
     T, C, _, L = _scratch(I)
-    _place(q, F, I, T, C)
-    _slacks_placed(C, F, I, L, False, out)
+    for r in range(qs.shape[0]):
+        if multi:
+            _place_any(qs[r], F, I, T, C)
+        else:
+            _place(qs[r], F, I, T, C)
+        _slacks_placed(C, F, I, L, False, out[r])
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def slacks_batch(qs: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
                  out: np.ndarray) -> None:
-    """:func:`slacks` for every row of ``qs`` (N, n) into ``out`` (N, pairs)."""
-    T, C, _, L = _scratch(I)
-    for r in range(qs.shape[0]):
-        _place(qs[r], F, I, T, C)
-        _slacks_placed(C, F, I, L, False, out[r])
+    """:func:`slacks` for every row of ``qs`` (N, nq) into ``out`` (N, pairs)."""
+    if qs.shape[1] != I[H_N]:  # universal or ball joints: q has more entries than joints
+        _slacks_batch(qs, F, I, out, True)
+        return
+    _slacks_batch(qs, F, I, out, False)
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
-def free_batch(qs: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
-               out: np.ndarray) -> None:
-    """``out[r]`` = whether configuration ``qs[r]`` has no pair closer than its padding.
-
-    A row with a NaN or infinite value is not free.
-    """
+def _free_batch(qs: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
+                out: np.ndarray, multi: bool) -> None:
+    """:func:`free_batch`, with :func:`_place_any` for ``multi``."""
     T, C, O, L = _scratch(I)  # noqa: E741
     _obstacle_boxes(F, I, O)
     for r in range(qs.shape[0]):
@@ -692,19 +774,38 @@ def free_batch(qs: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
         if not finite:
             out[r] = False
             continue
-        _place(qs[r], F, I, T, C)
+        if multi:
+            _place_any(qs[r], F, I, T, C)
+        else:
+            _place(qs[r], F, I, T, C)
         out[r] = _scan(C, F, I, O, L, 0.0, 0.0)[1] < 0
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def free_batch(qs: np.ndarray, F: np.ndarray, I: np.ndarray,  # noqa: E741
+               out: np.ndarray) -> None:
+    """``out[r]`` = whether configuration ``qs[r]`` has no pair closer than its padding.
+
+    A row with a NaN or infinite value is not free.
+    """
+    if qs.shape[1] != I[H_N]:  # universal or ball joints: q has more entries than joints
+        _free_batch(qs, F, I, out, True)
+        return
+    _free_batch(qs, F, I, out, False)
 
 
 # ---- motions ----------------------------------------------------------------------------------
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
 def _motion_bounds(F: np.ndarray, I: np.ndarray, step: np.ndarray,  # noqa: E741
                    cap_move: np.ndarray) -> None:
-    """``cap_move[c]``: how far any point of capsule ``c`` can travel for joint travels ``step``."""
-    n, k, lev = I[H_N], I[H_K], I[H_LEV]
+    """``cap_move[c]``: how far any point of capsule ``c`` can travel for joint travels ``step``.
+
+    ``step`` has one entry per tangent entry (``nv``: a universal joint two, a ball joint three).
+    """
+    k, lev = I[H_K], I[H_LEV]
     for c in range(k):
         s = 0.0
-        for j in range(n):
+        for j in range(step.shape[0]):
             s += F[lev + c, j] * step[j]
         cap_move[c] = s
 
@@ -715,9 +816,10 @@ def _pair_levers(F: np.ndarray, I: np.ndarray, coef: np.ndarray) -> None:  # noq
 
     A scene pair: the capsule's lever. A self pair: the sum of both capsules' levers, except
     for the joints that carry both capsules (the joints up to where their chains part): those
-    move the two together, rigidly, which leaves their distance as it is.
+    move the two together, rigidly, which leaves their distance as it is. Columns are tangent
+    entries (``nv``; a joint's first in column 21 of its row of ``F``, its kind in column 16).
     """
-    n, npair, lev = I[H_N], I[H_P], I[H_LEV]
+    n, npair, lev = coef.shape[1], I[H_P], I[H_LEV]
     sp, op, cb, par = I[H_SP], I[H_OP], I[H_CB], I[H_PAR]
     for idx in range(npair):
         a, b = I[sp + 2 * idx], I[sp + 2 * idx + 1]
@@ -734,7 +836,10 @@ def _pair_levers(F: np.ndarray, I: np.ndarray, coef: np.ndarray) -> None:  # noq
                 break
             jb = I[par + jb]
         while jb >= 0:
-            coef[idx, jb] = 0.0
+            kind = F[jb, 16]
+            v0 = int(F[jb, 21])
+            for i in range(1 if kind == 0.0 else (2 if kind < 2.5 else 3)):
+                coef[idx, v0 + i] = 0.0
             jb = I[par + jb]
     for s in range(I[H_S]):
         c = I[op + 2 * s]
@@ -781,19 +886,10 @@ def _argmin(x: np.ndarray) -> int:
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
-def segment_first_contact(q0: np.ndarray, q1: np.ndarray, F: np.ndarray,
-                          I: np.ndarray,  # noqa: E741
-                          resolution: float) -> tuple[float, int, float]:
-    """The first contact on the straight joint-space line ``q0``-``q1``, checked continuously.
-
-    The line is bisected until every piece is certified free (see :func:`_worst_uncertified`)
-    or a piece shorter than ``resolution`` [m of capsule travel] is not: then its end is
-    reported as the contact (its slack may be a hair above 0: a pair touching its padding).
-
-    Returns:
-        ``(u, pair, slack)``: the fraction of the line [0-1] of the first contact, the pair and
-        its slack there [m]; ``u = -1`` when the whole line is free.
-    """
+def _segment_first_contact(q0: np.ndarray, q1: np.ndarray, F: np.ndarray,
+                           I: np.ndarray,  # noqa: E741
+                           resolution: float, multi: bool) -> tuple[float, int, float]:
+    """:func:`segment_first_contact`, with :func:`_place_any` for ``multi``."""
     n = q0.shape[0]
     npairs = I[H_P] + I[H_S]
     depth_max = 60
@@ -813,7 +909,10 @@ def segment_first_contact(q0: np.ndarray, q1: np.ndarray, F: np.ndarray,
     _pair_moves(coef[:npairs], step, whole)
     # a pair at least as far as it can approach over a piece is certified on every piece
     # inside it whose other end is free: a lower bound of its slack does as well as the value
-    _place(q0, F, I, T, C)
+    if multi:
+        _place_any(q0, F, I, T, C)
+    else:
+        _place(q0, F, I, T, C)
     _slacks_placed(C, F, I, whole, True, cur)
     if npairs > 0:
         a = _argmin(cur[:npairs])
@@ -822,7 +921,10 @@ def segment_first_contact(q0: np.ndarray, q1: np.ndarray, F: np.ndarray,
     u_lo = 0.0
     top = 0
     us[0] = 1.0
-    _place(q1, F, I, T, C)
+    if multi:
+        _place_any(q1, F, I, T, C)
+    else:
+        _place(q1, F, I, T, C)
     _slacks_placed(C, F, I, whole, True, rows[0])
     while top >= 0:
         u_hi = us[top]
@@ -855,31 +957,42 @@ def segment_first_contact(q0: np.ndarray, q1: np.ndarray, F: np.ndarray,
         top += 1
         us[top] = um
         # the new sample only ends pieces inside lo-hi: bound by how far pairs approach over it
-        _place(q, F, I, T, C)
+        if multi:
+            _place_any(q, F, I, T, C)
+        else:
+            _place(q, F, I, T, C)
         _slacks_placed(C, F, I, move, True, rows[top])
     return -1.0, -1, 0.0
 
 
 @_ks.kernel(cache=True, nogil=True, error_model="numpy")
-def samples_first_problem(qs: np.ndarray, step: np.ndarray, F: np.ndarray,
+def segment_first_contact(q0: np.ndarray, q1: np.ndarray, F: np.ndarray,
                           I: np.ndarray,  # noqa: E741
-                          ) -> tuple[int, int, int, float]:
-    """The first sample in contact or step not certified free along sampled motion.
+                          resolution: float) -> tuple[float, int, float]:
+    """The first contact on the straight joint-space line ``q0``-``q1``, checked continuously.
 
-    Args:
-        qs: ``(N, n)`` samples.
-        step: ``(N - 1, n)``: per step an upper bound of each joint's travel between the
-            samples (the length of its path, not just the difference).
-        F: Packed floats.
-        I: Packed integers.
+    The line is straight in ``q`` (``q0 + u (q1 - q0)``): for arms without ball joints (the
+    model checks a ball joint's shortest arc by samples instead). The line is bisected until
+    every piece is certified free (see :func:`_worst_uncertified`) or a piece shorter than
+    ``resolution`` [m of capsule travel] is not: then its end is reported as the contact (its
+    slack may be a hair above 0: a pair touching its padding).
 
     Returns:
-        ``(status, i, pair, slack)``: status 0 all free and certified; 1 sample ``i`` is in
-        contact (``pair`` and its ``slack``); 2 the step from sample ``i`` to ``i + 1`` is not
-        certified by its end samples (``pair`` is the one in doubt).
+        ``(u, pair, slack)``: the fraction of the line [0-1] of the first contact, the pair and
+        its slack there [m]; ``u = -1`` when the whole line is free.
     """
+    if q0.shape[0] != I[H_N]:  # universal or ball joints: q has more entries than joints
+        return _segment_first_contact(q0, q1, F, I, resolution, True)
+    return _segment_first_contact(q0, q1, F, I, resolution, False)
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def _samples_first_problem(qs: np.ndarray, step: np.ndarray, F: np.ndarray,
+                           I: np.ndarray, multi: bool,  # noqa: E741
+                           ) -> tuple[int, int, int, float]:
+    """:func:`samples_first_problem`, with :func:`_place_any` for ``multi``."""
     npairs = I[H_P] + I[H_S]
-    n = qs.shape[1]
+    n = step.shape[1]
     T, C, _, _ = _scratch(I)
     prev = np.empty(max(npairs, 1))
     cur = np.empty(max(npairs, 1))
@@ -895,7 +1008,10 @@ def samples_first_problem(qs: np.ndarray, step: np.ndarray, F: np.ndarray,
             longest[j] = max(longest[j], step[r, j])
     _pair_moves(coef[:npairs], longest, enough)
     for r in range(qs.shape[0]):
-        _place(qs[r], F, I, T, C)
+        if multi:
+            _place_any(qs[r], F, I, T, C)
+        else:
+            _place(qs[r], F, I, T, C)
         _slacks_placed(C, F, I, enough, True, cur)
         if npairs > 0:
             a = _argmin(cur[:npairs])
@@ -909,6 +1025,30 @@ def samples_first_problem(qs: np.ndarray, step: np.ndarray, F: np.ndarray,
         for i in range(npairs):
             prev[i] = cur[i]
     return 0, -1, -1, 0.0
+
+
+@_ks.kernel(cache=True, nogil=True, error_model="numpy")
+def samples_first_problem(qs: np.ndarray, step: np.ndarray, F: np.ndarray,
+                          I: np.ndarray,  # noqa: E741
+                          ) -> tuple[int, int, int, float]:
+    """The first sample in contact or step not certified free along sampled motion.
+
+    Args:
+        qs: ``(N, nq)`` samples.
+        step: ``(N - 1, nv)``: per step an upper bound of each tangent entry's travel
+            between the samples (the length of its path, not just the difference; a ball
+            joint's: of each component of its angular velocity in its moved frame).
+        F: Packed floats.
+        I: Packed integers.
+
+    Returns:
+        ``(status, i, pair, slack)``: status 0 all free and certified; 1 sample ``i`` is in
+        contact (``pair`` and its ``slack``); 2 the step from sample ``i`` to ``i + 1`` is not
+        certified by its end samples (``pair`` is the one in doubt).
+    """
+    if qs.shape[1] != I[H_N]:  # universal or ball joints: q has more entries than joints
+        return _samples_first_problem(qs, step, F, I, True)
+    return _samples_first_problem(qs, step, F, I, False)
 
 
 _ks.finish(globals())

@@ -29,6 +29,7 @@ import numpy as np
 
 from armctl.collision.model import CollisionModel, register_finder, scene_of
 from armctl.config.scene import TABLE, AllowedPair, AllowReason, CollisionSpec, SceneSpec
+from armctl.config.schema import JointType
 from armctl.kinematics.model import KinematicModel
 
 __all__ = ["ALWAYS_FRACTION", "DEFAULT_SAMPLES", "adjacent_pairs", "allowed_pairs",
@@ -57,38 +58,112 @@ def _bounds(model: KinematicModel) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _sample(model: KinematicModel, count: int, seed: int) -> np.ndarray:
-    lo, hi = _bounds(model)
     rng = np.random.default_rng(seed)
+    if model.multi_dof_joints:  # a ball joint's rotation uniform inside its cone and twist
+        return np.asarray(model.sample(rng, count), dtype=float)
+    lo, hi = _bounds(model)
     return lo + (hi - lo) * rng.random((count, model.dof))
+
+
+def _tangent_span(model: KinematicModel) -> np.ndarray:
+    """Per tangent entry the width of its range: the limits, a full turn for a ball joint."""
+    lo, hi = _bounds(model)
+    out = np.empty(model.nv)
+    for j, jtype in enumerate(model.joint_types):
+        qs, vs = model.q_index(j), model.v_index(j)
+        out[vs] = 2.0 * math.pi if jtype is JointType.BALL else (hi - lo)[qs]
+    return out
+
+
+def _quat_batch_exp_mul(quat: np.ndarray, rotvec: np.ndarray) -> np.ndarray:
+    """``quat ⊗ exp(rotvec)`` row by row ``(..., 4)``, normalised with ``w >= 0``."""
+    angle = np.linalg.norm(rotvec, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    scale = np.where(angle > 1e-8, np.sin(half) / np.maximum(angle, 1e-300), 0.5)
+    bw = np.cos(half)[..., 0]
+    bx, by, bz = np.moveaxis(rotvec * scale, -1, 0)
+    aw, ax, ay, az = np.moveaxis(quat, -1, 0)
+    out = np.stack([aw * bw - ax * bx - ay * by - az * bz,
+                    aw * bx + ax * bw + ay * bz - az * by,
+                    aw * by - ax * bz + ay * bw + az * bx,
+                    aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+    out /= np.linalg.norm(out, axis=-1, keepdims=True)
+    return np.where(out[..., :1] < 0.0, -out, out)
+
+
+def _moved(model: KinematicModel, cur: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Configurations ``cur`` ``(..., nq)`` moved by tangent steps ``step`` ``(..., nv)``.
+
+    Kept inside the limits: clipped, a ball joint's rotation projected into its cone and twist.
+    """
+    lo, hi = _bounds(model)
+    if not model.multi_dof_joints:
+        return np.clip(cur + step, lo, hi)
+    out = np.empty(cur.shape)
+    balls = []
+    for j, jtype in enumerate(model.joint_types):
+        qs, vs = model.q_index(j), model.v_index(j)
+        if jtype is JointType.BALL:
+            out[..., qs] = _quat_batch_exp_mul(cur[..., qs], step[..., vs])
+            balls.append(j)
+        else:
+            out[..., qs] = np.clip(cur[..., qs] + step[..., vs], lo[qs], hi[qs])
+    flat = out.reshape(-1, model.nq)
+    outside = np.zeros(len(flat), dtype=bool)
+    for j in balls:
+        spec = model.spec.joint(model.joint_names[j])
+        swing, twist = _swing_twist_batch(flat[:, model.q_index(j)], np.asarray(spec.axis))
+        outside |= (swing > spec.swing) | (twist < spec.limits.lower) | (
+            twist > spec.limits.upper)
+    for r in np.flatnonzero(outside):
+        flat[r] = model.clip(flat[r])
+    return out
+
+
+def _swing_twist_batch(quat: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Swing [0, pi] and twist [-pi, pi] angles [rad] of unit quaternions ``(N, 4)``.
+
+    About the unit axis ``a``: ``sin(swing / 2) = |v x a|`` and the twist ``2 atan2(v . a, w)``
+    (``v`` the vector part), the split ``q = swing ⊗ twist``.
+    """
+    w, v = quat[:, 0], quat[:, 1:]
+    along = v @ axis
+    across = np.linalg.norm(np.cross(v, axis), axis=1)
+    swing = 2.0 * np.arcsin(np.minimum(across, 1.0))
+    twist = 2.0 * np.arctan2(along, w)
+    twist = np.where(twist > math.pi, twist - 2.0 * math.pi, twist)
+    twist = np.where(twist < -math.pi, twist + 2.0 * math.pi, twist)
+    return swing, twist
 
 
 def _search_contacts(probe: CollisionModel, owner: np.ndarray, cols: list[int],
                      starts: np.ndarray, model: KinematicModel, seed: int) -> set[int]:
     """The pairs (columns) among ``cols`` that a local search brings into contact.
 
-    From each pair's starts ``(len(cols), K, dof)``, random steps inside the joint limits are
-    tried; the best is kept when it brings the pair closer, and the step shrinks when none
-    does. A pair stops when it is in contact or its steps have shrunk to nothing.
+    From each pair's starts ``(len(cols), K, nq)``, random steps inside the joint limits are
+    tried (in the tangent space, ``nv``: a ball joint turns by a random rotation vector); the
+    best is kept when it brings the pair closer, and the step shrinks when none does. A pair
+    stops when it is in contact or its steps have shrunk to nothing.
     """
     _, per, rounds = _SEARCH
-    lo, hi = _bounds(model)
+    span = _tangent_span(model)
     rng = np.random.default_rng([seed, 1])
-    n = model.dof
+    n, nv = model.nq, model.nv
     cur = np.array(starts, dtype=float)
     nc, k = cur.shape[:2]
     masks = [owner == c for c in cols]
     sl = probe.slacks_batch(cur.reshape(-1, n)).reshape(nc, k, -1)
     val = np.stack([sl[i][..., masks[i]].min(axis=-1) for i in range(nc)])
-    step = np.broadcast_to(0.05 * (hi - lo), cur.shape).copy()
+    step = np.broadcast_to(0.05 * span, (nc, k, nv)).copy()
     found: set[int] = set()
     active = np.arange(nc)
     for _ in range(rounds):
-        active = active[[int(i) not in found and bool((step[i] > 1e-4 * (hi - lo)).any())
+        active = active[[int(i) not in found and bool((step[i] > 1e-4 * span).any())
                          for i in active]]
         if not len(active):
             break
-        cand = np.clip(cur[active, :, None, :] + step[active, :, None, :]
-                       * rng.standard_normal((len(active), k, per, n)), lo, hi)
+        cand = _moved(model, np.broadcast_to(cur[active, :, None, :], (len(active), k, per, n)),
+                      step[active, :, None, :] * rng.standard_normal((len(active), k, per, nv)))
         tried = probe.slacks_batch(cand.reshape(-1, n)).reshape(len(active), k, per, -1)
         for row, i in enumerate(active):
             v = tried[row][..., masks[i]].min(axis=-1)  # (k, per)
@@ -147,7 +222,8 @@ def generate_allowed(model: KinematicModel, scene: SceneSpec | None = None, *,
     adjacent = adjacent_pairs(model)
     posed: dict[frozenset[str], str] = {}
     for pose, values in model.spec.poses.items():
-        q = np.array([values.get(j, 0.0) for j in model.joint_names])
+        q = (model.named_pose(pose) if model.multi_dof_joints else
+             np.array([values.get(j, 0.0) for j in model.joint_names]))
         for i in np.flatnonzero(probe.slacks(q) < 0.0):
             a, b, _ = names[int(i)]
             posed.setdefault(frozenset((a, b)), pose)

@@ -33,8 +33,10 @@ from armctl.collision.contact import Clearance, Contact, ContactKind
 from armctl.collision.errors import SceneError
 from armctl.collision.primitives import PrimitiveKind, obstacle_primitive
 from armctl.config.scene import TABLE, CollisionSpec, Obstacle, SceneSpec
+from armctl.config.schema import JointType
 from armctl.errors import InputError
 from armctl.kinematics.capsules import collision_capsules
+from armctl.kinematics.compiled_tree import JOINT_COLUMNS
 from armctl.kinematics.model import KinematicModel
 from armctl.typing import Array
 
@@ -99,8 +101,10 @@ def _primitive(ob: Obstacle, world_to_base: Array, config: Any) -> _Prim:
 class CollisionModel:
     """An arm, its scene and its allowed-collision matrix, packed for the compiled checks.
 
-    Build one with :meth:`of`. Every method takes joint vectors in [rad]/[m] and gives
-    distances in [m].
+    Build one with :meth:`of`. Every method takes joint vectors ``q`` of ``model.nq`` entries
+    in [rad]/[m] (a universal joint's two angles, a ball joint's unit quaternion ``w, x, y,
+    z``: the layout of :class:`~armctl.kinematics.model.KinematicModel`) and gives distances
+    in [m]; joint travels of motions are per tangent entry (``model.nv``).
 
     Attributes:
         model: The arm.
@@ -111,12 +115,12 @@ class CollisionModel:
     """
 
     def __init__(self, model: KinematicModel, scene: SceneSpec, allowed: CollisionSpec):
-        model.require_one_dof("the collision checker")
         self.model = model
         self.scene = scene
         self.allowed = allowed
         tree = model.tree
-        n = model.dof
+        n = len(model.joint_names)  # joints; q has model.nq entries, tangents model.nv
+        nv = model.nv
         spec = model.spec
         allowed_keys = {p.key for p in allowed.allowed}
 
@@ -179,8 +183,11 @@ class CollisionModel:
             [(i, j, ContactKind.SELF) for i, j in self_pairs]
             + [(c, o, ContactKind.SCENE) for c, o in scene_pairs])
 
-        # levers: how far a point of each capsule moves per unit travel of each joint
-        lever = np.zeros((kcap, n))
+        # levers: how far a point of each capsule moves per unit travel of each tangent entry
+        # (a universal joint's two angles, a ball joint's three angular velocity components in
+        # its moved frame: a rotation by a vector turns a point by at most its length, which is
+        # at most the sum of its components' magnitudes)
+        lever = np.zeros((kcap, nv))
         for c in range(kcap):
             body = cap_body[c]
             if body < 0:
@@ -194,19 +201,21 @@ class CollisionModel:
             ends = max(float(np.linalg.norm(cap_rows[c][0:3])),
                        float(np.linalg.norm(cap_rows[c][3:6])))
             for pos, j in enumerate(chain):
+                cols = model.v_index(j)
                 if tree.is_prismatic(j):
-                    lever[c, j] = 1.0
+                    lever[c, cols] = 1.0
                     continue
                 reach = ends
                 for m in chain[pos + 1:]:
                     reach += float(np.linalg.norm(tree.joint_origin(m)[:3, 3]))
                     if tree.is_prismatic(m):
-                        travel = max(abs(tree.lower[m]), abs(tree.upper[m]))
+                        at = model.q_index(m).start
+                        travel = max(abs(tree.lower[at]), abs(tree.upper[at]))
                         reach += travel if math.isfinite(travel) else 10.0
-                lever[c, j] = reach
+                lever[c, cols] = reach
 
         # pack
-        width = max(K.WIDTH, n)
+        width = max(K.WIDTH, nv)
         nobs = len(prims)
         cap0 = n
         lev0 = cap0 + kcap
@@ -215,12 +224,13 @@ class CollisionModel:
         npairs = len(self._pairs)
         alw0 = misc + 1
         f = np.zeros((alw0 + max(1, -(-npairs // width)), width))
-        f[:n, :16] = tree.joints[:, :16]  # the 1-DOF columns (the collision kernels step those)
+        f[:n, :JOINT_COLUMNS] = tree.joints  # whole rows: multi-DOF joints step with all
         for c, row in enumerate(cap_rows):
             f[cap0 + c, :7] = row
-        f[lev0:lev0 + kcap, :n] = lever
-        #: ``(capsules, dof)``: how far a point of each capsule moves per unit travel of each
-        #: joint, an upper bound over every configuration ([m/rad]; 1 for prismatic joints).
+        f[lev0:lev0 + kcap, :nv] = lever
+        #: ``(capsules, nv)``: how far a point of each capsule moves per unit travel of each
+        #: tangent entry, an upper bound over every configuration ([m/rad]; 1 for prismatic
+        #: joints; a universal joint has two columns, a ball joint three).
         self.levers: Array = lever
         self.levers.setflags(write=False)
         for o, p in enumerate(prims):
@@ -249,6 +259,8 @@ class CollisionModel:
         self._F.setflags(write=False)
         self._I.setflags(write=False)
         self._scratch = np.empty(max(len(self._pairs), 1))
+        #: Whether a line between configurations has arcs (ball joints: slerp).
+        self._arcs = any(t is JointType.BALL for t in model.joint_types)
         #: The exact narrow phase (with the scene's ``exact``), else ``None``.
         self.exact: ExactPairs | None = None
         if scene.exact:
@@ -413,8 +425,12 @@ class CollisionModel:
         return bool(slack >= 0.0)
 
     def free_batch(self, qs: npt.ArrayLike) -> npt.NDArray[np.bool_]:
-        """:meth:`free` for each row of ``qs`` ``(N, dof)``."""
-        arr = np.ascontiguousarray(qs, dtype=np.float64).reshape(-1, self.model.dof)
+        """:meth:`free` for each row of ``qs`` ``(N, nq)``.
+
+        Rows are not checked as :meth:`free` checks ``q`` (a ball joint's quaternion is used
+        as its rotation whatever its norm); a row with a NaN or infinite value is not free.
+        """
+        arr = np.ascontiguousarray(qs, dtype=np.float64).reshape(-1, self.model.nq)
         out = np.empty(arr.shape[0], dtype=np.bool_)
         K.free_batch(arr, self._F, self._I, out)
         if self.exact is not None:
@@ -429,8 +445,8 @@ class CollisionModel:
         return out
 
     def slacks_batch(self, qs: npt.ArrayLike) -> Array:
-        """:meth:`slacks` for each row of ``qs`` ``(N, dof)``: ``(N, pairs)``."""
-        arr = np.ascontiguousarray(qs, dtype=np.float64).reshape(-1, self.model.dof)
+        """:meth:`slacks` for each row of ``qs`` ``(N, nq)``: ``(N, pairs)``."""
+        arr = np.ascontiguousarray(qs, dtype=np.float64).reshape(-1, self.model.nq)
         out = np.empty((arr.shape[0], len(self._pairs)))
         K.slacks_batch(arr, self._F, self._I, out)
         return out
@@ -440,29 +456,45 @@ class CollisionModel:
         """The first contact on the straight joint-space line ``q0``-``q1``, or ``None``.
 
         Checked continuously: no contact can hide between the points checked. ``time`` of the
-        contact is the fraction of the line [0-1].
+        contact is the fraction of the line [0-1]. A ball joint follows the shortest arc
+        between its two rotations (:meth:`~armctl.kinematics.model.KinematicModel.interpolate`).
         """
         a, b = self._q(q0), self._q(q1)
-        if self.exact is not None:
-            return self._exact_segment(a, b)
+        if self.exact is not None or self._arcs:
+            return self._sampled_segment(a, b)
         u, idx, slack = K.segment_first_contact(a, b, self._F, self._I, RESOLUTION)
         if u < 0.0:
             return None
         return self._contact(int(idx), slack, a + u * (b - a), float(u))
 
-    def _exact_segment(self, a: Array, b: Array) -> Contact | None:
-        """:meth:`first_contact_on_segment` through the sampled check (exact narrow phase)."""
-        span = np.abs(b - a)
+    def _sampled_segment(self, a: Array, b: Array) -> Contact | None:
+        """:meth:`first_contact_on_segment` through the sampled check.
+
+        For the exact narrow phase, and for arms with ball joints (whose line is the shortest
+        arc, which the compiled bisection does not follow).
+        """
+        km = self.model
+        if self._arcs:
+            tangent = km.difference(a, b)
+            span = np.abs(tangent)
+
+            def at(us: Array) -> Array:
+                return np.array([km.integrate(a, u * tangent) for u in us])
+        else:
+            span = np.abs(b - a)
+
+            def at(us: Array) -> Array:
+                return np.asarray(a + us[:, None] * (b - a), dtype=float)
 
         def refine(u0: float, u1: float) -> tuple[Array, Array, Array]:
             us = np.linspace(u0, u1, 9)
-            return us, a + us[:, None] * (b - a), np.tile(span * (us[1] - us[0]), (8, 1))
+            return us, at(us), np.tile(span * (us[1] - us[0]), (8, 1))
 
         return self.first_contact_on_samples(*refine(0.0, 1.0), refine, depth=24)
 
     def segment_free(self, q0: npt.ArrayLike, q1: npt.ArrayLike) -> bool:
         """Whether the straight joint-space line ``q0``-``q1`` is free (continuously)."""
-        if self.exact is not None:
+        if self.exact is not None or self._arcs:
             return self.first_contact_on_segment(q0, q1) is None
         u, _, _ = K.segment_first_contact(self._q(q0), self._q(q1), self._F, self._I,
                                           RESOLUTION)
@@ -475,9 +507,11 @@ class CollisionModel:
 
         Args:
             ts: ``(N,)`` sample times [s].
-            qs: ``(N, dof)`` samples.
-            step: ``(N - 1, dof)``: per step between samples an upper bound of how far each
-                joint travels (the length of its path) [rad]/[m].
+            qs: ``(N, nq)`` samples.
+            step: ``(N - 1, nv)``: per step between samples an upper bound of how far each
+                tangent entry travels (the length of its path) [rad]/[m]; for a ball joint,
+                of each component of its angular velocity in its moved frame (the integral
+                of its magnitude over the step).
             refine: Gives denser samples of a step that its end samples cannot certify;
                 ``None``: such a step counts as a contact.
             depth: How many times a step may be refined.
@@ -486,9 +520,9 @@ class CollisionModel:
             The first contact (its time, pair and depth), else ``None``.
         """
         t = np.asarray(ts, dtype=np.float64)
-        q = np.ascontiguousarray(qs, dtype=np.float64).reshape(len(t), self.model.dof)
+        q = np.ascontiguousarray(qs, dtype=np.float64).reshape(len(t), self.model.nq)
         s = np.ascontiguousarray(step, dtype=np.float64).reshape(max(len(t) - 1, 0),
-                                                                 self.model.dof)
+                                                                 self.model.nv)
         if not (np.isfinite(q).all() and np.isfinite(s).all() and np.isfinite(t).all()):
             raise InputError("a motion to check has a NaN or infinite sample; every joint value "
                              "and travel must be a finite number")

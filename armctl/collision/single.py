@@ -26,7 +26,7 @@ def clearance_once(model: CollisionModel, q: npt.ArrayLike) -> Clearance | None:
 
     Args:
         model: The collision model.
-        q: Joint values ``(dof,)`` [rad]/[m].
+        q: Joint values ``(nq,)`` [rad]/[m] (a ball joint's unit quaternion in place).
 
     Returns:
         The pair whose distance exceeds its padding by the least (negative margin: in

@@ -22,3 +22,20 @@ def test_python_example_runs(capsys: pytest.CaptureFixture[str]) -> None:
     assert lines[2] == "gripper_link table 0.51"
     # the comments in the block say the same
     assert "# True False" in code and "# gripper_link table 0.51" in code
+
+
+def test_ball_joint_example_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """The arm file and the example of "Arms with universal and ball joints", as printed."""
+    text = DOC.read_text(encoding="utf-8")
+    section = text[text.index("## Arms with universal and ball joints"):]
+    arm = re.search(r"^```yaml\n(.*?)^```", section, re.S | re.M)
+    code = re.search(r"^```python\n(.*?)^```", section, re.S | re.M)
+    assert arm and code
+    (tmp_path / "ball_arm.yaml").write_text(arm.group(1), encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code.group(1), str(DOC), "exec"), {})
+    printed = capsys.readouterr().out.splitlines()
+    said = [line.split("# ")[-1] for line in code.group(1).splitlines()
+            if line.startswith("print(")]
+    assert printed == said

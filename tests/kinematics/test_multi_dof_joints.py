@@ -281,14 +281,11 @@ def test_what_supports_1_dof_joints_only_refuses_clearly(tmp_path: Path) -> None
     goal = PositionGoal([0.1, 0.0, 0.5])
     with pytest.raises(InputError, match=r"solver 'analytic' supports 1-DOF joints only"):
         arm.ik(goal, solver="analytic")
-    from armctl.collision import CollisionModel
     from armctl.ik.analytic.errors import NoDecompositionError
     from armctl.motion.limits import MotionLimits
 
     with pytest.raises(NoDecompositionError, match="multi-DOF joint"):
         arm.ik_all(np.eye(4))
-    with pytest.raises(InputError, match="collision checker supports 1-DOF"):
-        CollisionModel.of(arm)
     # joint moves and keyframe playback take such arms (tests/motion/test_multi_dof_motion.py);
     # the planners that work coordinate by coordinate refuse them
     from armctl.motion import plan_detour
