@@ -223,12 +223,13 @@ def cmd_fk(args: argparse.Namespace) -> int:
         "matrix:",
     ]
     lines += ["  " + "  ".join(fmt(v, 6).rjust(10) for v in row) for row in pose]
-    if arm.multi_dof_joints:  # the collision checker steps 1-DOF joints only
-        return _fk_multi(args, arm, q, frame, pose, rpy, quat, lines)
     # without a collision matrix only the scene: sampling one would load the compiler
     clearance = scene_clearance(arm, q, scene, sample=False)
     links = self_checked(arm)
     lines.append(clearance_text(clearance, links))
+    if arm.multi_dof_joints:
+        return _fk_multi(args, (frame, q, pose, rpy, quat), arm, lines,
+                         clearance_data(clearance), links)
     for text in outside.values():
         lines.append(f"note: {text}")
     emit(args, {"frame": frame, "q": q, "position": pose[:3, 3], "rpy": rpy, "quaternion": quat,
@@ -241,11 +242,16 @@ def cmd_fk(args: argparse.Namespace) -> int:
     return 0
 
 
-def _fk_multi(args: argparse.Namespace, arm: Arm, q: np.ndarray, frame: str, pose: np.ndarray,
-              rpy: np.ndarray, quat: np.ndarray, lines: list[str]) -> int:
-    """The rest of ``fk`` for an arm with universal or ball joints: limits, no clearance."""
+def _fk_multi(args: argparse.Namespace, answer: tuple[str, np.ndarray, np.ndarray, np.ndarray,
+                                                      np.ndarray],
+              arm: Arm, lines: list[str], clearance: Any, links: bool) -> int:
+    """The rest of ``fk`` for an arm with universal or ball joints.
+
+    Its limits (a ball joint's swing and twist); the clearance is already in ``lines``.
+    """
     from armctl.errors import JointLimitError
 
+    frame, q, pose, rpy, quat = answer
     outside: list[dict[str, Any]] = []
     try:
         arm.check_limits(q)
@@ -253,11 +259,9 @@ def _fk_multi(args: argparse.Namespace, arm: Arm, q: np.ndarray, frame: str, pos
         outside.append({"joint": exc.joint, "value": exc.value, "lower": exc.lower,
                         "upper": exc.upper})
         lines.append("note: " + str(exc).split("; nothing was sent")[0])
-    lines.append("clearance: not checked (the collision checker supports 1-DOF joints only; "
-                 f"this arm has {', '.join(arm.multi_dof_joints)})")
     emit(args, {"frame": frame, "q": q, "position": pose[:3, 3], "rpy": rpy, "quaternion": quat,
-                "matrix": pose, "within_limits": not outside, "clearance": None,
-                "link_pairs_checked": False, "outside_limits": outside}, "\n".join(lines))
+                "matrix": pose, "within_limits": not outside, "clearance": clearance,
+                "link_pairs_checked": links, "outside_limits": outside}, "\n".join(lines))
     return 0
 
 

@@ -204,9 +204,7 @@ def cmd_render(args: argparse.Namespace) -> int:
             raise InputError(f"--{name} must be positive, got {value}")
     if args.keyframes or args.path:
         return _render_motion(args, arm, q, view, camera, target, scene)
-    # the collision checker steps 1-DOF joints only: an arm with ball or universal joints is
-    # drawn without its scene (said below)
-    drawing = None if args.no_scene or arm.multi_dof_joints else scene_drawing(arm, q, scene)
+    drawing = None if args.no_scene else scene_drawing(arm, q, scene)
     pic = render_pose(arm, q, args.output, view=view, camera=camera, frames=frames_arg(args),
                       target=target, size=args.size or 5.0, dpi=args.dpi or 110.0,
                       scene=drawing, title=pose_title(arm, q, args.deg))  # Q's unit
@@ -217,9 +215,6 @@ def cmd_render(args: argparse.Namespace) -> int:
                      + (" (drawn red)" if drawing.in_contact else ""))
     if pic.target_distance is not None:
         lines.append(f"distance from the tool to the target: {fmt(pic.target_distance)} m")
-    if arm.multi_dof_joints and not args.no_scene:
-        lines.append("note: no scene or clearance drawn: the collision checker supports 1-DOF "
-                     f"joints only (this arm has {', '.join(arm.multi_dof_joints)})")
     inside = arm.within_limits(q)
     if not inside:
         lines.append("note: these joint values are outside the joint limits")
@@ -301,16 +296,7 @@ def _render_motion(args: argparse.Namespace, arm: Arm, q: np.ndarray, view: View
             emit(args, data, text)
             return 0
     ts, qs = sample_plan(plan, max(args.fps, 1.0) * 2.0)
-    checker, no_scene = None, ""
-    if not args.no_scene:
-        try:
-            checker = CollisionModel.of(arm, scene)
-        except InputError:
-            if not arm.multi_dof_joints:
-                raise
-            # a collision checker that steps 1-DOF joints only: drawn without the scene
-            no_scene = ("\nnote: no scene or contacts drawn: the collision checker does not "
-                        f"take this arm's joints ({', '.join(arm.multi_dof_joints)})")
+    checker = None if args.no_scene else CollisionModel.of(arm, scene)
     res = render_animation(arm, qs, ts, args.output, fps=args.fps, view=view, camera=camera,
                            frames=frames_arg(args), target=target, line=line,
                            size=args.size or 4.5, dpi=args.dpi or 80.0,
@@ -320,7 +306,7 @@ def _render_motion(args: argparse.Namespace, arm: Arm, q: np.ndarray, view: View
                 first_contact=None if res.first_contact is None else {
                     "time": res.first_contact_time, **(clearance_data(res.first_contact) or {})})
     text = (f"wrote {res.path}: {head}, {res.duration:.2f} s, {res.frames} frames "
-            f"at {res.fps:.3g} fps (planned only; nothing moved){no_scene}")
+            f"at {res.fps:.3g} fps (planned only; nothing moved)")
     if res.first_contact is not None:
         frames = ("1 frame shows" if res.contact_frames == 1
                   else f"{res.contact_frames} frames show")

@@ -294,8 +294,8 @@ def _solve_multi_dof(model: KinematicModel, goal: GoalLike, q0: npt.ArrayLike | 
     """IK on an arm with universal or ball joints: the tangent-space methods, ``nlp``, or a refusal.
 
     Raises:
-        InputError: For ``analytic`` (or any solver that steps 1-DOF joints only) and for a
-            collision checker, naming the multi-DOF joints and what to use instead.
+        InputError: For ``analytic`` (or any solver that steps 1-DOF joints only), naming the
+            multi-DOF joints and what to use instead.
         UnsupportedGoalError: For constraints given to a method that takes none (naming
             ``nlp``).
     """
@@ -308,12 +308,12 @@ def _solve_multi_dof(model: KinematicModel, goal: GoalLike, q0: npt.ArrayLike | 
         raise InputError(
             f"arm {model.name!r} has the multi-DOF joint(s) {joints}: the solver {solver!r} "
             f"supports 1-DOF joints only. Use nlp or one of {', '.join(sorted(TANGENT_METHODS))}.")
-    if avoid is not None or opts.avoid is not None:
-        raise InputError(
-            f"arm {model.name!r} has the multi-DOF joint(s) {joints}: collision avoidance "
-            "(avoid=, or a scene on the command line) supports 1-DOF joints only. Solve without "
-            "a collision checker (armctl ik --no-collisions), and keep links out of given "
-            "zones with the nlp solver's KeepOutSphere and KeepOutBox constraints (--keep-out).")
+    if avoid is not None:
+        if tuple(avoid.model.joint_names) != tuple(model.joint_names):
+            raise InputError(f"avoid: the collision checker was built for arm "
+                             f"{avoid.model.name!r}, whose joints differ from those of "
+                             f"{model.name!r}; use CollisionModel.of(arm) of the arm solved")
+        opts = replace(opts, avoid=avoid)
     goals = as_goals(goal)
     for g in goals:
         model.frame_index(g.frame)

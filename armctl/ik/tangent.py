@@ -273,7 +273,11 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     objective = (TangentObjective(model, ns, goals[0].frame)
                  if ns is not None and ns.active and solver in NULLSPACE_METHODS else None)
     rng = np.random.default_rng(options.seed)
+    avoid = options.avoid
     best_q, best_e = q0, math.inf
+    contact_q: Array | None = None  # the answer with the shallowest contact, when all collide
+    contact_depth = math.inf
+    found = 0
     iterations = 0
     attempts = 0
     status = IKStatus.MAX_ITERATIONS
@@ -282,15 +286,12 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
         attempts += 1
         en = p.residual(q)
         lam = 0.05 * model.tree.max_reach
+        met = False
         for _ in range(options.max_iterations):
             iterations += 1
             if p.met(q):
-                if objective is not None:
-                    q, steps = _refine(p, q, objective, started + options.time_limit)
-                    iterations += steps
-                return finish(model, goals, q, solver=solver, status=IKStatus.CONVERGED,
-                              iterations=iterations, restarts=attempts - 1, started=started,
-                              start=q0)
+                met = True
+                break
             if solver in ("ccd", "ccd-jt"):
                 q = _ccd_sweep(p, q)
                 if solver == "ccd-jt":
@@ -316,18 +317,29 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
                 q, en = qn, en2
             if time.perf_counter() - started > options.time_limit:
                 break
-        if en < best_e:
-            best_q, best_e = q, en
-        if p.met(q):
-            best_q = q
+        if met or p.met(q):
             if objective is not None:
-                best_q, steps = _refine(p, q, objective, started + options.time_limit)
+                q, steps = _refine(p, q, objective, started + options.time_limit)
                 iterations += steps
-            status = IKStatus.CONVERGED
-            break
+            contact = avoid.contact(q) if avoid is not None else None
+            if contact is None:
+                return finish(model, goals, q, solver=solver, status=IKStatus.CONVERGED,
+                              iterations=iterations, restarts=attempts - 1, started=started,
+                              start=q0, avoid=avoid)
+            found += 1  # an answer in contact: set aside, search on from a random start
+            if contact.depth < contact_depth:
+                contact_q, contact_depth = q, contact.depth
+        elif en < best_e:
+            best_q, best_e = q, en
         if time.perf_counter() - started > options.time_limit:
             status = IKStatus.TIME_LIMIT
             break
         q = model.sample(rng)
+    if contact_q is not None:
+        note = (f"{found} answer(s) found in {attempts} start(s), every one in contact; the one "
+                "with the shallowest contact is returned")
+        return finish(model, goals, contact_q, solver=solver, status=IKStatus.CONVERGED,
+                      iterations=iterations, restarts=attempts - 1, started=started, start=q0,
+                      avoid=avoid, message=note)
     return finish(model, goals, best_q, solver=solver, status=status, iterations=iterations,
-                  restarts=attempts - 1, started=started, start=q0, search=True)
+                  restarts=attempts - 1, started=started, start=q0, search=True, avoid=avoid)

@@ -384,35 +384,43 @@ def test_universal_joints_alone_take_the_compiled_line(tmp_path: Path) -> None:
 
 
 # ---- the figure with ball shoulders and hips --------------------------------------------------
-def _ball_figure(folder: Path) -> Path:
-    """The figure with each three-axis shoulder and hip written as one ball joint."""
+#: The figure's ball joints as three revolute axes meeting in one point: (axis, range [deg])
+THREE_AXES = {
+    "shoulder": (([1, 0, 0], (-95, 100)), ([0, 0, 1], (-100, 100)), ([0, 1, 0], (-90, 90))),
+    "hip": (([0, 1, 0], (-120, 30)), ([1, 0, 0], (-45, 45)), ([0, 0, 1], (-45, 45))),
+}
+
+
+def _three_axis_figure(folder: Path) -> Path:
+    """The bundled figure with each ball shoulder and hip written as three revolute axes."""
     doc = yaml.safe_load(FIGURE.read_text(encoding="utf-8"))
     joints = []
     for j in doc["joints"]:
-        name = j["name"]
-        if name.endswith(("_1", "_2", "_3")) and name[:-2].endswith(("shoulder", "hip")):
-            if name.endswith("_1"):
-                twist = {"left_shoulder": [0, 1, 0], "right_shoulder": [0, -1, 0]}
-                joints.append({"name": name[:-2], "type": "ball", "parent": j["parent"],
-                               "child": name[:-2].replace("shoulder", "upper_arm")
-                               .replace("hip", "thigh"), "origin": j["origin"],
-                               "axis": twist.get(name[:-2], [0, 0, -1])})
+        if j["type"] != "ball":
+            joints.append(j)
             continue
-        joints.append(j)
+        kind = "shoulder" if "shoulder" in j["name"] else "hip"
+        parent = j["parent"]
+        for k, (axis, (lo, hi)) in enumerate(THREE_AXES[kind], start=1):
+            child = j["child"] if k == 3 else f"{j['name']}__{k}"
+            joints.append({"name": f"{j['name']}_{k}", "type": "revolute", "parent": parent,
+                           "child": child, "axis": axis,
+                           "limits": {"lower": f"{lo} deg", "upper": f"{hi} deg"},
+                           **({"origin": j["origin"]} if k == 1 else {})})
+            parent = child
     doc["joints"] = joints
-    doc["links"] = [lk for lk in doc["links"] if "__" not in lk["name"]]
     for key in ("poses", "collision", "skin"):
         doc.pop(key, None)
-    out = folder / "figure_ball.yaml"
+    out = folder / "figure_three_axes.yaml"
     out.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
     return out
 
 
 def test_the_ball_figure_has_the_distances_of_the_three_axis_figure_and_of_coal(
         tmp_path: Path) -> None:
-    three = KinematicModel(load_spec(FIGURE))
-    path = _ball_figure(tmp_path)
-    ball = KinematicModel(load_spec(path))
+    three = KinematicModel(load_spec(_three_axis_figure(tmp_path)))
+    path = FIGURE
+    ball = KinematicModel(load_spec(FIGURE))
     assert len(ball.multi_dof_joints) == 4 and ball.nv == three.dof
     scene = SceneSpec(table=None)
     cb = CollisionModel.of(ball, scene, adjacent_only(ball))

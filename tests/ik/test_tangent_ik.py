@@ -5,6 +5,7 @@ success only when forward kinematics meets the goal."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -142,3 +143,52 @@ def test_cli_ik_on_a_ball_arm(tmp_path_factory: pytest.TempPathFactory,
     arm = armctl.load_arm(p)
     np.testing.assert_allclose(arm.fk(np.array(data["q"]))[:3, 3], [0.1, 0, 0.5], atol=1e-4)
     assert len(data["joints"]["shoulder"]) == 4
+
+
+@pytest.mark.parametrize("method", ["dls", "ccd", "nlp"])
+def test_collision_avoidance_on_an_arm_with_ball_and_universal_joints(method: str) -> None:
+    """Goals whose plain answers collide with the arm's scene (a wall, a lamp, a post) or
+    itself: with the checker the answers reach the goal free of contact (the checker is tested
+    against coal in tests/collision/test_multi_dof.py)."""
+    from pathlib import Path
+
+    from armctl.collision import CollisionModel
+
+    arm = armctl.load_arm(Path(__file__).parents[1] / "collision" / "multi_dof_arm.yaml")
+    checker = CollisionModel.of(arm)
+    rng = np.random.default_rng(3)
+    opts = armctl.ik.IKOptions(restarts=30, time_limit=10.0)
+    avoided = 0
+    for i in range(40):
+        qt = arm.sample(rng)
+        if checker.contact(qt) is not None:
+            continue
+        goal = PositionGoal(arm.fk(qt)[:3, 3])
+        plain = arm.ik(goal, solver=method, options=replace(opts, seed=i))
+        if plain.success and checker.contact(plain.q) is None:
+            continue  # the plain answer is free already
+        res = arm.ik(goal, solver=method, options=replace(opts, seed=i), avoid=checker)
+        assert res.success, (i, res.message)
+        assert checker.contact(res.q) is None and res.contact is None
+        np.testing.assert_allclose(arm.fk(res.q)[:3, 3], goal.position, atol=1e-4)
+        assert arm.within_limits(res.q)
+        avoided += 1
+        if avoided == 2:
+            break
+    assert avoided == 2  # goals whose plain answers collide were met
+
+
+def test_a_goal_reached_only_in_contact_is_no_success() -> None:
+    """The tool inside the wall: every answer collides, the shallowest is returned, and the
+    result says it is in contact."""
+    from pathlib import Path
+
+    from armctl.collision import CollisionModel
+
+    arm = armctl.load_arm(Path(__file__).parents[1] / "collision" / "multi_dof_arm.yaml")
+    checker = CollisionModel.of(arm)
+    wall = np.array([0.4, 0.0, 0.25])  # the wall box's centre
+    res = arm.ik(PositionGoal(wall), solver="dls",
+                 options=armctl.ik.IKOptions(restarts=4, seed=0), avoid=checker)
+    assert not res.success
+    assert res.contact is not None and checker.contact(res.q) is not None
