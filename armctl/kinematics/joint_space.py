@@ -121,16 +121,22 @@ def sample_ball(rng: np.random.Generator, b: BallJoint, n: int) -> Array:
     e1 = np.cross(a, helper)
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(a, e1)
+    # the twist axis's new direction d, and the shortest rotation taking a to d (the swing)
+    d = ct[:, None] * a + st[:, None] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
+    axis = np.cross(a, d)
+    sn = np.linalg.norm(axis, axis=1)
+    angle = np.arctan2(sn, d @ a)
+    unit = np.where(sn[:, None] > 1e-12, axis / np.where(sn > 1e-12, sn, 1.0)[:, None],
+                    np.where(angle[:, None] > 1.0, e1, 0.0))  # d = -a: about e1; d = a: none
+    half = angle / 2.0
+    sw = np.concatenate([np.cos(half)[:, None], np.sin(half)[:, None] * unit], axis=1)
+    tw_w, tw_s = np.cos(twist / 2.0), np.sin(twist / 2.0)
+    # sw (x) (cos t/2, sin t/2 a): the Hamilton product, the twist's vector part along a
     out = np.empty((n, 4))
-    for i in range(n):
-        d = ct[i] * a + st[i] * (math.cos(phi[i]) * e1 + math.sin(phi[i]) * e2)
-        axis = np.cross(a, d)  # the shortest rotation taking a to d
-        sn = float(np.linalg.norm(axis))
-        angle = math.atan2(sn, float(a @ d))
-        swing_q = quat_exp(axis / sn * angle) if sn > 1e-12 else (
-            quat_exp(e1 * angle) if angle > 1.0 else np.array([1.0, 0.0, 0.0, 0.0]))
-        q = quat_multiply(swing_q, quat_exp(a * twist[i]))
-        out[i] = q if q[0] >= 0 else -q
+    out[:, 0] = sw[:, 0] * tw_w - tw_s * (sw[:, 1:] @ a)
+    out[:, 1:] = (sw[:, 0] * tw_s)[:, None] * a + tw_w[:, None] * sw[:, 1:] \
+        + tw_s[:, None] * np.cross(sw[:, 1:], a)
+    out *= np.where(out[:, :1] >= 0.0, 1.0, -1.0)
     return out
 
 
