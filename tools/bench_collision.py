@@ -320,8 +320,10 @@ def main() -> None:
         "Agreement on the compared configurations: free/colliding, and per checked link pair "
         "the least distance minus padding against coal's `ComputeDistance` "
         "(GJK tolerance 1e-12), largest difference where both say apart, and where they "
-        "overlap with capsules, spheres and the table (for boxes the model reports the depth "
-        "of the deepest point of the segment, coal the penetration depth: not compared).",
+        "overlap with capsules, spheres and the table (depths in boxes, the penetration "
+        "depth in both since, are checked against a brute-force search in "
+        "`tests/collision/test_kernels.py` and against coal in "
+        "`tests/collision/test_distance_truth.py`, not in this run).",
         "",
         "| arm | same answer | distance, apart [m] | depth, no boxes [m] |",
         "|---|---|---|---|",
