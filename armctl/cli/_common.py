@@ -201,7 +201,7 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
 
     Rotary values are radians, or degrees with ``--deg``; prismatic values are metres. A
     universal joint takes its two angles, a ball joint four numbers: its unit quaternion
-    ``w x y z`` (never converted by ``--deg``).
+    ``w x y z`` (never converted by ``--deg``; a norm within 0.001 of 1 is normalised).
 
     Raises:
         InputError: For a wrong count, a value that is not a finite number, a rotary value
@@ -250,8 +250,18 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
                 f"rad), so it can only be degrees: did you mean --deg?{also}")
         out[i] = v
     if arm.multi_dof_joints:
+        for j, t in enumerate(arm.joint_types):  # typed to a few decimals: normalised
+            sl = arm.q_index(j)
+            norm = float(np.linalg.norm(out[sl]))
+            if t is JointType.BALL and abs(norm - 1.0) <= _TYPED_UNIT_TOLERANCE:
+                out[sl] /= norm
         arm.as_q(out, what)  # a ball joint's quaternion must be of unit norm (names the joint)
     return out
+
+
+#: How far from 1 the norm of a ball joint's quaternion typed on the command line may be and
+#: still be taken (normalised), as in keyframe files: four decimals written by hand.
+_TYPED_UNIT_TOLERANCE = 1e-3
 
 
 def fmt(x: float, digits: int = 4) -> str:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -125,6 +126,27 @@ def resolve_frames(arm: KinematicModel, names: Sequence[str]) -> tuple[str, ...]
     return tuple(dict.fromkeys(out))
 
 
+#: A picture title's font size [pt], and the smallest it is shrunk to before it wraps.
+_TITLE_SIZE, _TITLE_SMALLEST = 9.0, 6.0
+#: The width of an average character of the title font, in font sizes (DejaVu Sans).
+_CHAR_WIDTH = 0.6
+
+
+def set_title(fig: Figure, text: str) -> None:
+    """Set a picture's title so that it fits the picture's width.
+
+    One line at 9 pt when it fits, else smaller (down to 6 pt), else wrapped at 6 pt (a long
+    joint vector, e.g. of an arm with ball joints).
+    """
+    width_pt = fig.get_figwidth() * 72.0 * 0.96
+    size = _TITLE_SIZE
+    fits = width_pt / (_CHAR_WIDTH * size)
+    if len(text) > fits:
+        size = max(_TITLE_SMALLEST, _TITLE_SIZE * fits / len(text))
+        text = "\n".join(textwrap.wrap(text, max(10, int(width_pt / (_CHAR_WIDTH * size)))))
+    fig.suptitle(text, fontsize=size)
+
+
 def pose_title(arm: KinematicModel, q: npt.ArrayLike, deg: bool = False) -> str:
     """The arm's name and joint values, with their units, for a picture's title.
 
@@ -233,7 +255,7 @@ def render_pose(arm: KinematicModel, q: npt.ArrayLike, out_path: str | Path, *,
                 poses[arm.frame_index(name)])
         if target is not None:
             draw_target(ax, target.pose, length, target.oriented)
-    fig.suptitle(title if title is not None else pose_title(arm, qv), fontsize=9)
+    set_title(fig, title if title is not None else pose_title(arm, qv))
     fit_labels(fig, axes)
     save_figure(fig, out)
     tool = arm.fk(qv)[:3, 3]

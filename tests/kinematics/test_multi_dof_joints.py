@@ -327,6 +327,17 @@ def test_cli_fk_and_render(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert main(["fk", str(p), "0", "1", "0", "0", "0", "0", "0"]) != 0
     assert "expected 8 values (base_yaw, shoulder: 4 (quaternion w x y z)" in \
         capsys.readouterr().err
+    # four decimals typed by hand are normalised; a quaternion far from unit norm is refused
+    typed = ["0", "0.7071", "0.7071", "0", "0", "0", "0", "0"]
+    assert main(["fk", str(p), *typed, "--json"]) == 0
+    exact = ["0", *(str(x) for x in np.array([0.7071, 0.7071, 0, 0]) / math.hypot(0.7071, 0.7071)),
+             "0", "0", "0"]
+    got = json.loads(capsys.readouterr().out)["matrix"]
+    assert main(["fk", str(p), *exact, "--json"]) == 0
+    np.testing.assert_allclose(got, json.loads(capsys.readouterr().out)["matrix"], atol=1e-15)
+    assert main(["fk", str(p), "0", "0.9", "0.9", "0", "0", "0", "0", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "ball joint 'shoulder'" in err and "norm 1.27" in err and "Traceback" not in err
     assert main(["render", str(p), "-o", str(tmp_path / "r.png")]) == 0
     assert "clearance" in capsys.readouterr().out
     assert (tmp_path / "r.png").stat().st_size > 0

@@ -202,3 +202,30 @@ def test_the_default_http_port_moves_on_and_says_so(capsys):
     choose_http_port(given)  # 0: any free port, nothing to say
     say_http_port(given, 45678)
     assert capsys.readouterr().err == ""
+
+
+def test_a_long_title_fits_the_picture(tmp_path: Path) -> None:
+    """The figure's 30 joint values (quaternions of its ball joints) do not fit one line: the
+    title shrinks and wraps, and stays inside the picture."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from armctl.arm import load_arm
+    from armctl.render.picture import pose_title, set_title
+    from armctl.render.plots import new_figure
+
+    arm = load_arm("figure")
+    text = pose_title(arm, arm.named_pose("stand"))
+    for size in (2.0, 4.0, 8.0):
+        fig, _ = new_figure(size=(size, size), dpi=100)
+        set_title(fig, text)
+        title = fig._suptitle
+        assert title is not None
+        assert title.get_text().replace("\n", " ") == text  # every value kept
+        renderer = fig.canvas.get_renderer()
+        box = title.get_window_extent(renderer)
+        assert 0 <= box.x0 and box.x1 <= fig.bbox.width, (size, box)
+    fig, _ = new_figure(size=(5.0, 5.0), dpi=100)
+    set_title(fig, "so101  q = [0.1, 0.2] rad")
+    assert fig._suptitle is not None and "\n" not in fig._suptitle.get_text()
+    assert fig._suptitle.get_fontsize() == 9
