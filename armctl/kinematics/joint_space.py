@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armctl.errors import InputError
-from armctl.spatial import quat_exp, quat_log, quat_multiply, swing_twist, swing_twist_quat
+from armctl.spatial import quat_exp, quat_log, quat_multiply, swing_twist_quat
 from armctl.typing import Array
 
 __all__ = ["BallJoint", "ball_violation", "check_unit", "difference", "integrate",
@@ -56,6 +56,12 @@ class BallJoint:
         """Whether the joint has a cone or a twist limit."""
         return self.swing < math.pi or math.isfinite(self.lower) or math.isfinite(self.upper)
 
+    @property
+    def axis_tuple(self) -> tuple[float, float, float]:
+        """The twist axis as three floats."""
+        ax, ay, az = self.axis.tolist()
+        return ax, ay, az
+
 
 def check_unit(q: Array, balls: tuple[BallJoint, ...], what: str) -> None:
     """Refuse a ball joint's quaternion whose norm is not 1 (within :data:`UNIT_TOLERANCE`).
@@ -73,11 +79,31 @@ def check_unit(q: Array, balls: tuple[BallJoint, ...], what: str) -> None:
                 "quaternion (w, x, y, z) (normalize it, or use model.normalize(q))")
 
 
+def _swing_twist(w: float, x: float, y: float, z: float, b: BallJoint) -> tuple[float, float]:
+    """Swing and twist angles [rad] of a unit quaternion with ``w >= 0`` (scalars).
+
+    The split of :func:`armctl.spatial.swing_twist`: the twist quaternion is ``(w, p a) / t``
+    (``p`` the projection of the vector part on the axis ``a``, ``t = |(w, p)|``), so the swing
+    ``q ⊗ twist^-1`` has the scalar part ``t``: swing ``2 atan2(sqrt(1 - t^2), t)``, twist
+    ``2 atan2(p, w)``.
+    """
+    ax, ay, az = b.axis_tuple
+    p = x * ax + y * ay + z * az
+    t2 = w * w + p * p
+    t = math.sqrt(t2)
+    if t < 1e-12:  # a half turn about an axis perpendicular to the twist axis: no twist
+        return math.pi, 0.0
+    return 2.0 * math.atan2(math.sqrt(max(0.0, 1.0 - t2)), t), 2.0 * math.atan2(p, w)
+
+
 def ball_violation(quat: Array, b: BallJoint, tol: float) -> tuple[str, float, float, float] | None:
     """The first limit a ball joint's quaternion breaks: ``(what, value, lower, upper)``."""
     if not b.limited:
         return None
-    swing, twist = swing_twist(quat, b.axis)
+    w, x, y, z = quat.tolist()
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    sign = 1.0 / n if w >= 0 else -1.0 / n
+    swing, twist = _swing_twist(w * sign, x * sign, y * sign, z * sign, b)
     if swing > b.swing + tol:
         return "swing from the cone's centre", swing, 0.0, b.swing
     if not b.lower - tol <= twist <= b.upper + tol:
@@ -87,13 +113,18 @@ def ball_violation(quat: Array, b: BallJoint, tol: float) -> tuple[str, float, f
 
 def project_ball(quat: Array, b: BallJoint) -> Array:
     """The quaternion moved into the limits: twist clamped, swing shortened (same direction)."""
-    quat = quat / np.linalg.norm(quat)
+    w, x, y, z = quat.tolist()
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    sign = 1.0 / n if w >= 0 else -1.0 / n
+    w, x, y, z = w * sign, x * sign, y * sign, z * sign
+    out_q = np.array([w, x, y, z])
     if not b.limited:
-        return quat if quat[0] >= 0 else -quat
-    swing_q, twist_q = swing_twist_quat(quat, b.axis)
-    swing, twist = swing_twist(quat, b.axis)
+        return out_q
+    swing, twist = _swing_twist(w, x, y, z, b)
     if b.lower <= twist <= b.upper and swing <= b.swing:
-        return quat if quat[0] >= 0 else -quat
+        return out_q
+    quat = out_q
+    swing_q, twist_q = swing_twist_quat(quat, b.axis)
     twist = min(max(twist, b.lower), b.upper)
     twist_q = quat_exp(b.axis * twist)
     if swing > b.swing:
@@ -140,32 +171,51 @@ def sample_ball(rng: np.random.Generator, b: BallJoint, n: int) -> Array:
     return out
 
 
-def integrate(q: Array, v: Array, q_slices: tuple[slice, ...], v_slices: tuple[slice, ...],
+def integrate(q: Array, v: Array, scalar_q: Array, scalar_v: Array,
               balls: tuple[BallJoint, ...]) -> Array:
-    """``q`` moved by the tangent step ``v``: sums, and ``q ⊗ exp(v / 2)`` for ball joints."""
+    """``q`` moved by the tangent step ``v``: sums, and ``q ⊗ exp(v / 2)`` for ball joints.
+
+    ``scalar_q`` and ``scalar_v`` index the entries of 1-DOF and universal joints in ``q`` and
+    in ``v`` (in the same order).
+    """
     out = np.empty(q.shape[0])
-    for qs, vs in zip(q_slices, v_slices, strict=True):
-        if qs.stop - qs.start == 4:
-            continue
-        out[qs] = q[qs] + v[vs]
+    out[scalar_q] = q[scalar_q] + v[scalar_v]
     for b in balls:
-        new = quat_multiply(q[b.q], quat_exp(v[b.v]))
-        new /= np.linalg.norm(new)
-        out[b.q] = new if new[0] >= 0 else -new
+        out[b.q] = _times_exp(q[b.q].tolist(), v[b.v].tolist())
     return out
 
 
-def difference(q0: Array, q1: Array, q_slices: tuple[slice, ...], v_slices: tuple[slice, ...],
+def _times_exp(q: list[float], v: list[float]) -> list[float]:
+    """``q ⊗ exp(v / 2)`` normalised with ``w >= 0``, in scalars.
+
+    The product of :func:`armctl.spatial.quat_multiply` and :func:`armctl.spatial.quat_exp`.
+    """
+    aw, ax, ay, az = q
+    vx, vy, vz = v
+    angle = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if angle < 1e-8:  # second-order series: sin(a/2)/a = 1/2 - a^2/48
+        bw, k = 1.0 - angle * angle / 8.0, 0.5 - angle * angle / 48.0
+    else:
+        bw, k = math.cos(angle / 2.0), math.sin(angle / 2.0) / angle
+    bx, by, bz = vx * k, vy * k, vz * k
+    w = aw * bw - ax * bx - ay * by - az * bz
+    x = aw * bx + ax * bw + ay * bz - az * by
+    y = aw * by - ax * bz + ay * bw + az * bx
+    z = aw * bz + ax * by - ay * bx + az * bw
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    n = n if w >= 0 else -n
+    return [w / n, x / n, y / n, z / n]
+
+
+def difference(q0: Array, q1: Array, scalar_q: Array, scalar_v: Array, nv: int,
                balls: tuple[BallJoint, ...]) -> Array:
     """The tangent step from ``q0`` to ``q1``.
 
-    Differences, and ``log(q0^-1 ⊗ q1)`` (the shortest arc) for ball joints.
+    Differences, and ``log(q0^-1 ⊗ q1)`` (the shortest arc) for ball joints; ``scalar_q``,
+    ``scalar_v`` as for :func:`integrate`, ``nv`` the tangent's length.
     """
-    out = np.empty(v_slices[-1].stop if v_slices else 0)
-    for qs, vs in zip(q_slices, v_slices, strict=True):
-        if qs.stop - qs.start == 4:
-            continue
-        out[vs] = q1[qs] - q0[qs]
+    out = np.empty(nv)
+    out[scalar_v] = q1[scalar_q] - q0[scalar_q]
     for b in balls:
         conj = q0[b.q] * np.array([1.0, -1.0, -1.0, -1.0])
         out[b.v] = quat_log(quat_multiply(conj, q1[b.q]))

@@ -130,6 +130,12 @@ class KinematicModel:
             self._q_slices += (slice(qa, qa + j.type.nq),)
             self._v_slices += (slice(va, va + j.type.nv),)
             qa, va = qa + j.type.nq, va + j.type.nv
+        #: The entries of 1-DOF and universal joints in q and in a tangent (same order).
+        self._scalar_q = np.array([i for sl in self._q_slices if sl.stop - sl.start != 4
+                                   for i in range(sl.start, sl.stop)], dtype=np.intp)
+        self._scalar_v = np.array([i for ql, sl in zip(self._q_slices, self._v_slices,
+                                                       strict=True) if ql.stop - ql.start != 4
+                                   for i in range(sl.start, sl.stop)], dtype=np.intp)
         #: The ball joints: (name, q slice, twist axis, swing limit, twist lower, twist upper).
         self._balls: tuple[js.BallJoint, ...] = tuple(
             js.BallJoint(j.name, self._q_slices[i], self._v_slices[i], np.array(j.axis),
@@ -417,7 +423,7 @@ class KinematicModel:
                              f"{self.name!r}; got shape {step.shape}")
         if not self._balls:
             return arr + step
-        return js.integrate(arr, step, self._q_slices, self._v_slices, self._balls)
+        return js.integrate(arr, step, self._scalar_q, self._scalar_v, self._balls)
 
     def difference(self, q0: npt.ArrayLike, q1: npt.ArrayLike) -> Array:
         """The tangent step ``v`` with ``integrate(q0, v) == q1`` (shortest arc for a ball).
@@ -432,7 +438,7 @@ class KinematicModel:
         a, b = self._fast_q(q0), self._fast_q(q1)
         if not self._balls:
             return np.asarray(b - a, dtype=float)
-        return js.difference(a, b, self._q_slices, self._v_slices, self._balls)
+        return js.difference(a, b, self._scalar_q, self._scalar_v, self.nv, self._balls)
 
     def interpolate(self, q0: npt.ArrayLike, q1: npt.ArrayLike, s: float) -> Array:
         """The configuration a fraction ``s`` of the way from ``q0`` to ``q1``.
