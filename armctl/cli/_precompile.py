@@ -80,6 +80,9 @@ GROUPS: dict[str, tuple[tuple[str, ...], ...]] = {
          "--solver", "analytic", "--all"),
         ("ik", "panda", *_POSE_PANDA, "--solver", "analytic", "--all"),
         ("ik", "ur5e", *_POSE_UR),  # auto: numerical, then the closed form
+        # an arm with ball joints: the multi-DOF kernels, tangent-space IK, their collisions
+        ("ik", "figure", "--xyz", "0.4", "-0.25", "1.15"),
+        ("collisions", "figure"),
     ),
 }
 
@@ -96,7 +99,7 @@ def _kinematics() -> None:
     import armctl
 
     rng = np.random.default_rng(0)
-    for name in ("so101", "ur5e"):
+    for name in ("so101", "ur5e", "figure"):
         arm = armctl.load_arm(name)
         qs = arm.sample(rng, 8)
         arm.fk_batch(qs)
