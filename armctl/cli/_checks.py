@@ -105,6 +105,18 @@ def check_keyframe_path(path: str) -> None:
                          "keyframe file there (written by 'armctl teach'); the arm is CONFIG")
 
 
+def check_servo_arm(arm: Arm) -> None:
+    """Refuse, before anything else, a motion command for an arm no servo can drive.
+
+    Raises:
+        InputError: For an arm with ball or universal joints (no servos, no simulated bus),
+            saying how to draw its motions instead.
+    """
+    if arm.multi_dof_joints:
+        raise InputError(f"arm {arm.name!r} cannot be moved by servos: "
+                         f"{arm.spec.no_bus_fix()}")
+
+
 def check_named_pose(arm: Arm, name: str) -> None:
     """Refuse a named pose that the config lacks or that lies outside the config's limits.
 

@@ -253,8 +253,16 @@ def parse_angles(values: Sequence[str], deg: bool, arm: Arm,
         for j, t in enumerate(arm.joint_types):  # typed to a few decimals: normalised
             sl = arm.q_index(j)
             norm = float(np.linalg.norm(out[sl]))
-            if t is JointType.BALL and abs(norm - 1.0) <= _TYPED_UNIT_TOLERANCE:
-                out[sl] /= norm
+            if t is not JointType.BALL:
+                continue
+            if abs(norm - 1.0) > _TYPED_UNIT_TOLERANCE:
+                given = " ".join(values[sl.start:sl.stop])
+                raise InputError(
+                    f"{what}: ball joint {arm.joint_names[j]!r} (values {sl.start + 1}-{sl.stop}) "
+                    f"is '{given}', of norm {norm:.6g}: a ball joint takes its unit quaternion "
+                    "w x y z, never angles (--deg does not apply to it); e.g. '1 0 0 0' for no "
+                    "rotation, '0.7071 0.7071 0 0' for 90 deg about x")
+            out[sl] /= norm
         arm.as_q(out, what)  # a ball joint's quaternion must be of unit norm (names the joint)
     return out
 

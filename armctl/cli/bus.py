@@ -151,8 +151,8 @@ def _spec(args: argparse.Namespace) -> ArmSpec:
         bus = simulated_bus_spec(spec) if spec.bus is None else replace(spec.bus, port=SIM_PORT)
         return replace(spec, bus=bus)
     if spec.bus is None:
-        raise InputError(f"arm {spec.name!r} has no 'bus:' section; add one (docs/bus.md), "
-                         "or use --sim for the built-in simulated bus")
+        raise InputError(f"arm {spec.name!r} has no 'bus:' section; "
+                         f"{spec.no_bus_fix(sim=hasattr(args, 'sim'))}")
     if getattr(args, "port", None):
         spec = replace(spec, bus=replace(spec.bus, port=args.port))
     return spec

@@ -12,6 +12,7 @@ import argparse
 import math
 from typing import TYPE_CHECKING, Any
 
+from armctl.cli._checks import check_servo_arm as _check_servo_arm
 from armctl.cli._common import add_config, add_json, load_arm_arg
 from armctl.cli.move import add_move_options
 from armctl.errors import InputError
@@ -146,6 +147,7 @@ def cmd_gripper(args: argparse.Namespace) -> int:
     from armctl.cli.move import joint_command
 
     arm = load_arm_arg(args)
+    _check_servo_arm(arm)
     idx = gripper_indices(arm)
     value = goal_value(arm, idx, args.goal, args.deg, args.mm)
     _checks.check_speed_arg(args, arm)

@@ -304,6 +304,8 @@ def cmd_ik(args: argparse.Namespace) -> int:
     try:
         req = build_request(args, arm)
     except JointLimitError as exc:  # --from: name the limit's source (config or calibration)
+        if exc.joint in arm.multi_dof_joints:  # a swing, twist or universal angle: as raised
+            raise
         raise limits.error(exc.joint, exc.value, "--from") from None
     asked_pose = args.xyz is not None and (args.rpy is not None or args.quat is not None)
     if asked_pose and not args.force_pose:
@@ -354,7 +356,9 @@ def not_involved(arm: Arm, goals: Sequence[Goal]) -> list[str]:
 
 
 def check_pose_dof(arm: Arm, goals: tuple[Goal, ...]) -> None:
-    """Refuse a full pose goal for a frame that fewer than 6 joints move (before solving).
+    """Refuse a full pose goal for a frame that fewer than 6 degrees of freedom move.
+
+    A ball joint counts 3, a universal joint 2 (the tangent entries, ``model.v_index``).
 
     Raises:
         InputError: Naming the arm, the joint count and the goals that can be reached instead.
@@ -362,11 +366,14 @@ def check_pose_dof(arm: Arm, goals: tuple[Goal, ...]) -> None:
     for goal in goals:
         if goal.dof < 6:
             continue
-        n = len(arm.chain(goal.frame))
+        chain = arm.chain(goal.frame)
+        n = sum(arm.v_index(j).stop - arm.v_index(j).start for j in chain)  # ball joint: 3
         if n < 6:
             frame = "its tool" if goal.frame in (None, arm.tool) else f"frame {goal.frame!r}"
+            moves = (f"{n} joints" if n == len(chain) else
+                     f"{len(chain)} joints of {n} degrees of freedom")
             raise InputError(
-                f"arm {arm.name!r} moves {frame} with {n} joints: a full 6-DOF pose is "
+                f"arm {arm.name!r} moves {frame} with {moves}: a full 6-DOF pose is "
                 "generally unreachable; give --direction AXIS DX DY DZ (5-DOF) or only --xyz "
                 "(or --force-pose to try anyway)")
 

@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from armctl.cli._bus_choice import add_bus_choice
+from armctl.cli._checks import check_servo_arm as _check_servo_arm
 from armctl.cli._common import add_config, add_json, emit, finite, load_arm_arg
 from armctl.cli._scene import add_scene_option
 from armctl.errors import InputError
@@ -82,6 +83,7 @@ def cmd_jog(args: argparse.Namespace) -> int:
     from armctl.robot.teach import ExistingFile, TeachSession
 
     arm = load_arm_arg(args)
+    _check_servo_arm(arm)
     steps = _steps(args)
     assert isinstance(steps, JogSteps)
     _checks.check_speed_arg(args, arm)

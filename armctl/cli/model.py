@@ -57,7 +57,7 @@ def cmd_arms(args: argparse.Namespace) -> int:
     rows, data = [], []
     for name, path in bundled_configs().items():
         spec = load_spec(path)
-        dof = len(spec.actuated_joints)
+        dof = sum(j.type.nv for j in spec.actuated_joints)  # a ball joint counts 3
         port = spec.bus.port if spec.bus else "-"
         rows.append([name, str(dof), spec.tool, port, spec.description])
         data.append({"name": name, "path": str(path), "dof": dof, "tool": spec.tool,

@@ -7,6 +7,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from armctl.cli._bus_choice import add_bus_choice
+from armctl.cli._checks import check_servo_arm as _check_servo_arm
 from armctl.cli._common import (
     add_config,
     add_json,
@@ -146,6 +147,7 @@ def cmd_move_to_pose(args: argparse.Namespace) -> int:
                          "by a detour; drop --linear to let --plan find a way, or drop --plan")
     detour = detour_options(args)
     arm = load_arm_arg(args)
+    _check_servo_arm(arm)
     tcp_speed, tcp_angular_speed = tcp_speeds(args)
     axes = None
     fixed: Goal | None = None  # an absolute goal, known before the bus opens
@@ -235,6 +237,7 @@ def cmd_move_joints(args: argparse.Namespace) -> int:
     from armctl.cli import _checks
 
     arm = load_arm_arg(args)
+    _check_servo_arm(arm)
     q = parse_angles(args.values, args.deg, arm, "move-joints values")
     _check_values(arm, q, args.deg)
     _checks.check_speed_arg(args, arm)
@@ -246,6 +249,7 @@ def cmd_named(args: argparse.Namespace) -> int:
     from armctl.cli import _checks
 
     arm = load_arm_arg(args)
+    _check_servo_arm(arm)
     _checks.check_named_pose(arm, args.pose)
     _checks.check_speed_arg(args, arm)
     return joint_command(args, arm, lambda robot: robot.arm.named_pose(args.pose),

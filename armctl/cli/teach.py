@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from armctl.cli._bus_choice import add_bus_choice
+from armctl.cli._checks import check_servo_arm as _check_servo_arm
 from armctl.cli._common import add_config, add_json, add_log_option, emit, load_arm_arg
 from armctl.cli._scene import add_scene_option
 
@@ -48,6 +49,7 @@ def cmd_teach(args: argparse.Namespace) -> int:
     from armctl.robot.teach import ExistingFile, TeachSession
 
     arm = load_arm_arg(args)
+    _check_servo_arm(arm)
     _checks.check_teach_output(args, arm)
     existing = (ExistingFile.APPEND if args.append else
                 ExistingFile.OVERWRITE if args.force else ExistingFile.REFUSE)

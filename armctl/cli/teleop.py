@@ -135,7 +135,7 @@ def _servo_joints(arm: Arm) -> list[str]:
     """
     if arm.spec.bus is None:
         raise InputError(f"arm {arm.name!r} has no 'bus:' section: teleoperation drives servos; "
-                         "add one (docs/bus.md), or use --sim for simulated servos")
+                         f"{arm.spec.no_bus_fix()}")
     return [s.joint for s in arm.spec.bus.servos]
 
 

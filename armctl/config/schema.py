@@ -288,3 +288,21 @@ class ArmSpec:
     def actuated_joints(self) -> tuple[JointSpec, ...]:
         """The joints with a degree of freedom, in the order of the joint vector."""
         return tuple(j for j in self.joints if j.type.actuated)
+
+    def no_bus_fix(self, sim: bool = True) -> str:
+        """The fix for a command that needs servos on an arm without a ``bus:`` section.
+
+        An arm with ball or universal joints cannot have one (a servo turns one axis): its
+        motions are drawn instead. Other arms get a ``bus:`` section, or (``sim``) the built-in
+        simulated bus.
+        """
+        multi = [j.name for j in self.actuated_joints
+                 if j.type in (JointType.UNIVERSAL, JointType.BALL)]
+        draw = f"'armctl render {self.name} --keyframes FILE -o motion.gif'"
+        if multi:
+            return (f"servos turn one axis each, so an arm with the multi-DOF joint(s) "
+                    f"{', '.join(multi)} has no servos and no simulated bus; draw its motions "
+                    f"instead: {draw}")
+        return ("add a 'bus:' section (docs/bus.md)"
+                + (", or use --sim for the built-in simulated bus" if sim else "")
+                + f", or draw the motion instead of running it: {draw}")

@@ -282,6 +282,11 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
     attempts = 0
     status = IKStatus.MAX_ITERATIONS
     q = model.clip(q0)
+    # restarts draw the joints that move a goal frame; the others keep their start values
+    held = np.ones(model.nq, dtype=bool)
+    for j in {j for g in goals for j in model.chain(g.frame)}:
+        held[model.q_index(j)] = False
+    start = q.copy()
     while attempts <= options.restarts:
         attempts += 1
         en = p.residual(q)
@@ -335,6 +340,7 @@ def solve_tangent(model: KinematicModel, goals: tuple[Goal, ...], q0: Array,
             status = IKStatus.TIME_LIMIT
             break
         q = model.sample(rng)
+        q[held] = start[held]
     if contact_q is not None:
         note = (f"{found} answer(s) found in {attempts} start(s), every one in contact; the one "
                 "with the shallowest contact is returned")

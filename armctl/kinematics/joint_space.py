@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from armctl.errors import InputError
 from armctl.spatial import quat_exp, quat_log, quat_multiply, swing_twist_quat
@@ -171,7 +172,7 @@ def sample_ball(rng: np.random.Generator, b: BallJoint, n: int) -> Array:
     return out
 
 
-def integrate(q: Array, v: Array, scalar_q: Array, scalar_v: Array,
+def integrate(q: Array, v: Array, scalar_q: npt.NDArray[np.intp], scalar_v: npt.NDArray[np.intp],
               balls: tuple[BallJoint, ...]) -> Array:
     """``q`` moved by the tangent step ``v``: sums, and ``q ⊗ exp(v / 2)`` for ball joints.
 
@@ -207,7 +208,8 @@ def _times_exp(q: list[float], v: list[float]) -> list[float]:
     return [w / n, x / n, y / n, z / n]
 
 
-def difference(q0: Array, q1: Array, scalar_q: Array, scalar_v: Array, nv: int,
+def difference(q0: Array, q1: Array, scalar_q: npt.NDArray[np.intp],
+               scalar_v: npt.NDArray[np.intp], nv: int,
                balls: tuple[BallJoint, ...]) -> Array:
     """The tangent step from ``q0`` to ``q1``.
 

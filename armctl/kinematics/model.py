@@ -355,8 +355,13 @@ class KinematicModel:
             found = js.ball_violation(arr[b.q], b, tol)
             if found is not None:
                 what, value, lo, hi = found
-                raise JointLimitError(b.name, value, lo, hi,
-                                      f"{what}{'; ' + context if context else ''}")
+                key = "swing" if what.startswith("swing") else "twist"
+                degrees = (f"{what}: {math.degrees(value):.4f} deg against "
+                           f"[{math.degrees(lo):.4f}, {math.degrees(hi):.4f}] deg")
+                raise JointLimitError(
+                    b.name, value, lo, hi, f"{degrees}{'; ' + context if context else ''}",
+                    advice=f"Choose a rotation inside the limits, or widen limits.{key} of "
+                           f"joint {b.name!r} in the arm config.")
         return arr
 
     def _joint_of_q(self, i: int) -> int:

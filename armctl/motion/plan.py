@@ -118,11 +118,17 @@ def plan_joint_move(q0: npt.ArrayLike, q1: npt.ArrayLike, limits: MotionLimits,
 
     Raises:
         LimitViolation: If the goal (or any sample) is outside the limits.
-        InputError: For a speed factor outside (0, 1].
+        InputError: For a speed factor outside (0, 1], or a ball joint's quaternion that is not
+            of unit norm.
     """
     t0 = time.perf_counter()
     start = np.asarray(q0, dtype=float)
     goal = np.asarray(q1, dtype=float)
+    if limits.layout is not None:  # a ball joint's quaternions must be unit (names the joint)
+        from armctl.kinematics.joint_space import check_unit
+
+        check_unit(start, limits.layout.balls, "start of the move")
+        check_unit(goal, limits.layout.balls, "goal of the move")
     limits.check_position(goal, "goal of the move")
     if limits.layout is not None:
         traj: Trajectory = geodesic_move(start, goal, limits.scaled(speed))

@@ -71,13 +71,16 @@ class Animation:
     first_contact_time: float | None = None
 
 
-def resample(qs: npt.ArrayLike, times: npt.ArrayLike, fps: float) -> tuple[Array, Array]:
+def resample(qs: npt.ArrayLike, times: npt.ArrayLike, fps: float,
+             arm: KinematicModel | None = None) -> tuple[Array, Array]:
     """Joint values at evenly spaced frame times, linearly interpolated between samples.
 
     Args:
-        qs: Joint values ``(N, dof)``.
+        qs: Joint values ``(N, nq)``.
         times: Sample times ``(N,)`` [s], strictly increasing.
         fps: Frames per second.
+        arm: The arm, when it has ball joints: their quaternions are interpolated on the
+            sphere (slerp, :meth:`KinematicModel.interpolate`), not entry by entry.
 
     Returns:
         Frame times ``(F,)`` [s] (first and last sample included) and joint values ``(F, dof)``.
@@ -103,6 +106,11 @@ def resample(qs: npt.ArrayLike, times: npt.ArrayLike, fps: float) -> tuple[Array
     if ft[-1] < t[-1] - 1e-9:
         ft = np.append(ft, t[-1])
     fq = np.column_stack([np.interp(ft, t, q[:, j]) for j in range(q.shape[1])])
+    if arm is not None and arm.multi_dof_joints and len(t) > 1:
+        k = np.clip(np.searchsorted(t, ft, side="right") - 1, 0, len(t) - 2)
+        frac = np.clip((ft - t[k]) / (t[k + 1] - t[k]), 0.0, 1.0)
+        fq = np.array([arm.interpolate(q[i], q[i + 1], float(f))
+                       for i, f in zip(k.tolist(), frac.tolist(), strict=True)])
     return ft, fq
 
 
@@ -198,7 +206,7 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
         raise InputError(f"animation: max_frames must be at least 2, got {max_frames}")
     if duration * fps + 1 > max_frames:
         fps = (max_frames - 1) / duration
-    ft, fq = resample(q_in, t_in, fps)
+    ft, fq = resample(q_in, t_in, fps, arm)
     names = resolve_frames(arm, frames)
     geo = geometry or BoundGeometry(arm)
     all_poses = [arm.fk_frames(qf) for qf in fq]

@@ -81,8 +81,7 @@ def arm_on_bus(arm: Arm, port: str | None = None, sim: bool = False) -> Arm:
         if spec.bus is None:
             raise InputError(
                 f"--port {port}: arm {spec.name!r}{where} has no 'bus:' section, so armctl does "
-                "not know its protocol, baud rate and servo ids; add a 'bus:' section "
-                "(docs/bus.md), or use --sim for the built-in simulated bus")
+                f"not know its protocol, baud rate and servo ids; {spec.no_bus_fix()}")
         bus = replace(spec.bus, port=port)
     elif spec.bus is None:
         bus = simulated_bus_spec(spec)

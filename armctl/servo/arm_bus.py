@@ -17,7 +17,7 @@ import numpy.typing as npt
 from armctl.clock import Clock, WallClock
 from armctl.config.bus import BusSpec, Protocol
 from armctl.config.schema import ArmSpec
-from armctl.errors import ConfigError, InputError
+from armctl.errors import ConfigError, InputError, KeyPath
 from armctl.servo import errors as E
 from armctl.servo.calibration import Calibration
 from armctl.servo.driver import Feedback, ServoBus
@@ -133,10 +133,8 @@ class ArmBus:
         """
         if spec.bus is None:
             raise ConfigError(f"arm {spec.name!r} has no 'bus:' section: it has no servos to "
-                              "move", None,
-                              "add a bus section (see docs/bus.md), or draw the motion instead "
-                              f"of running it: 'armctl render {spec.name} --keyframes FILE -o "
-                              "motion.gif'")
+                              "move", KeyPath(spec.file) if spec.file is not None else None,
+                              spec.no_bus_fix(sim=False))
         mapping = JointMapping.from_spec(spec, calibration)
         self = cls(spec.bus, mapping, retries=retries, wire_timing=wire_timing, clock=clock)
         self.calibration = calibration

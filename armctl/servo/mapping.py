@@ -248,8 +248,9 @@ class JointMapping:
             ConfigError: No bus section, or a joint that needs a turn count its servo lacks.
         """
         if spec.bus is None:
-            raise ConfigError(f"arm {spec.name!r} has no 'bus:' section", None,
-                              "add a bus section with port, protocol and servos")
+            raise ConfigError(f"arm {spec.name!r} has no 'bus:' section",
+                              KeyPath(spec.file) if spec.file is not None else None,
+                              spec.no_bus_fix(sim=False))
         by_joint = {s.joint: s for s in spec.bus.servos}
         home = spec.poses.get("home", {})
         maps = []

@@ -129,8 +129,17 @@ def test_a_motion_verb_on_the_bus_refuses_clearly(capsys: pytest.CaptureFixture[
     code = main(["move-joints", "figure", *(f"{x:g}" for x in tpose)])
     err = capsys.readouterr().err
     assert code == 2
-    assert "no 'bus:' section: it has no servos" in err and "Traceback" not in err
+    assert "cannot be moved by servos" in err and "Traceback" not in err
     assert "armctl render figure --keyframes" in err
+    for verb in (["home", "figure"], ["park", "figure"], ["jog", "figure"],
+                 ["move-to-pose", "figure", "--xyz", "0.3", "0", "1.2"]):
+        assert main(verb) == 2
+        err = capsys.readouterr().err
+        assert "multi-DOF joint(s) left_shoulder" in err and "Traceback" not in err, verb
+    for verb in (["status", "figure", "--once"], ["calibrate", "figure"]):
+        assert main(verb) == 2
+        err = capsys.readouterr().err
+        assert "draw its motions instead" in err and "--sim" not in err, verb
     code = main(["play", str(WALK), "figure"])
     err = capsys.readouterr().err
     assert code == 2 and "no 'bus:' section" in err and "Traceback" not in err

@@ -370,5 +370,5 @@ def test_the_simulated_bus_refuses_an_arm_with_multi_dof_joints(
     path = Path(__file__).resolve().parents[1] / "data" / "ball_arm.yaml"
     code = cli_main(["move-joints", str(path), "1", "0", "0", "0", "0", "0", "0", "--sim"])
     err = capsys.readouterr().err
-    assert code == 2 and "no servo can drive: 'shoulder' (ball), 'wrist' (universal)" in err
+    assert code == 2 and "multi-DOF joint(s) shoulder, wrist has no servos" in err
     assert "armctl render" in err and "Traceback" not in err

@@ -136,3 +136,19 @@ def test_render_keyframes_of_an_arm_with_ball_joints(tmp_path: Path,
     arm = armctl.load_arm(BALL_ARM)
     plan = plan_keyframes(arm, path, arm.named_pose("home"))
     assert np.allclose(arm.fk(plan.goal)[:3, 3], [0.2, 0.1, 0.45], atol=1e-3)
+
+
+def test_a_joint_move_refuses_quaternions_that_are_not_unit() -> None:
+    import armctl
+    from armctl.errors import InputError
+    from armctl.motion import MotionLimits, plan_joint_move
+
+    fig = armctl.load_arm("figure")
+    limits = MotionLimits.from_model(fig)
+    good = fig.named_pose("stand")
+    bad = good.copy()
+    bad[fig.q_index("left_hip")] = [2.0, 0.0, 0.0, 0.0]
+    with pytest.raises(InputError, match=r"goal of the move: ball joint 'left_hip'.*norm 2"):
+        plan_joint_move(good, bad, limits)
+    with pytest.raises(InputError, match=r"start of the move: ball joint 'left_hip'"):
+        plan_joint_move(bad, good, limits)
