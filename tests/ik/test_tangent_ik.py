@@ -192,3 +192,41 @@ def test_a_goal_reached_only_in_contact_is_no_success() -> None:
                  options=armctl.ik.IKOptions(restarts=4, seed=0), avoid=checker)
     assert not res.success
     assert res.contact is not None and checker.contact(res.q) is not None
+
+
+def test_restarts_keep_the_joints_that_move_no_goal() -> None:
+    """A goal for the right palm that needs restarts: the legs, the head and the left arm of
+    the figure keep their start values (the note of `armctl ik` says so)."""
+    fig = armctl.load_arm("figure")
+    start = fig.named_pose("stand")
+    moving = {j for j in fig.chain("right_palm")}
+    opts = armctl.ik.IKOptions(max_iterations=3, restarts=6, seed=2)
+    res = fig.ik(PositionGoal([0.0, 0.0, 1.3], frame="right_palm"), start, "dls", options=opts)
+    assert res.restarts >= 1
+    for j, name in enumerate(fig.joint_names):
+        if j not in moving:
+            np.testing.assert_array_equal(res.q[fig.q_index(name)], start[fig.q_index(name)],
+                                          err_msg=name)
+
+
+def test_cli_full_pose_counts_degrees_of_freedom(capsys: pytest.CaptureFixture[str]) -> None:
+    """The right palm of the figure has 7 degrees of freedom in 5 joints (a ball shoulder):
+    a full pose is solved without --force-pose; a ball joint's --from outside its cone names
+    the swing."""
+    from armctl.cli import main
+
+    fig = armctl.load_arm("figure")
+    q = fig.sample(np.random.default_rng(4))
+    pose = fig.fk(q, "right_palm")
+    quat = Rotation.from_matrix(pose[:3, :3]).as_quat(scalar_first=True)
+    code = main(["ik", "figure", "--xyz", *(f"{v:.9f}" for v in pose[:3, 3]), "--quat",
+                 *(f"{v:.9f}" for v in quat), "--no-collisions", "--json"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    start = fig.named_pose("stand")
+    start[fig.q_index("right_shoulder")] = [math.cos(0.95), 0.0, 0.0, math.sin(0.95)]  # 109 deg
+    code = main(["ik", "figure", "--xyz", "0.3", "-0.3", "1.2", "--from",
+                 *(f"{v:.9f}" for v in start)])
+    err = capsys.readouterr().err
+    assert code == 2 and "'right_shoulder'" in err and "swing" in err, err
+    assert "limits.swing" in err and "Traceback" not in err
