@@ -266,10 +266,12 @@ def render_animation(arm: KinematicModel, qs: npt.ArrayLike, times: npt.ArrayLik
                 first = first or (c, float(ft[k] - ft[0]))
             for scene_artist in scenes:
                 scene_artist.set_contact(hot)
-        for arm_artist, triads, trail_line in artists:
+        for i, (arm_artist, triads, trail_line) in enumerate(artists):
             if scene is not None:
                 arm_artist.set_highlight({name: CONTACT_COLOR for name in hot})
-            arm_artist.set_pose(poses)
+            arm_points = arm_artist.set_pose(poses)
+            if scenes:
+                scenes[i].order(scenes[i].axes, arm_points)
             for idx, triad in triads:
                 triad.set_pose(poses[idx])
             if trail_line is not None:

@@ -247,9 +247,9 @@ def render_pose(arm: KinematicModel, q: npt.ArrayLike, out_path: str | Path, *,
     length = triad_length(bounds)
     for ax, cam in zip(axes, cams, strict=False):
         setup_axes(ax, bounds, cam, title=len(cams) > 1 or camera is None)
+        arm_points = ArmArtist(ax, geo, highlight=hot).set_pose(poses)
         if scene is not None:
-            draw_scene(ax, scene, bounds)
-        ArmArtist(ax, geo, highlight=hot).set_pose(poses)
+            draw_scene(ax, scene, bounds, arm_points)
         for name in names:
             FrameTriad(ax, length, name if len(names) <= 8 else "").set_pose(
                 poses[arm.frame_index(name)])
@@ -310,9 +310,9 @@ def render_path(arm: KinematicModel, qs: npt.ArrayLike, out_path: str | Path, *,
     tool_pts = np.zeros((0, 3))
     for ax, cam in zip(axes, cams, strict=False):
         setup_axes(ax, bounds, cam)
-        if scene is not None:
-            draw_scene(ax, scene, bounds)
         tool_pts = draw_path(ax, geo, q, line=line, frame=frame, ghosts=ghosts, highlight=hot)
+        if scene is not None:
+            draw_scene(ax, scene, bounds, geo.pose_vertices(arm.fk_frames(q[-1])))
         if target is not None:
             draw_target(ax, target.pose, triad_length(bounds), target.oriented)
     axes[0].legend(fontsize=7, loc="upper left")

@@ -49,7 +49,7 @@ __all__ = [
 #: Colour of the members of a pair in contact (links, obstacles, the table).
 CONTACT_COLOR = "#D62728"
 #: Colour of the obstacles.
-OBSTACLE_COLOR = "#6B7B8C"
+OBSTACLE_COLOR = "#009E73"
 #: Colour of the table.
 TABLE_COLOR = "#B59B6B"
 _OBSTACLE_ALPHA = 0.55
@@ -181,8 +181,9 @@ def _shaded(mesh: TriMesh, color: str, alpha: float) -> Array:
 class SceneArtist:
     """The table and the obstacles on 3-D axes, recoloured when a pair is in contact.
 
-    The table is drawn under the arm (a translucent slab as wide as the picture), the obstacles
-    before the arm, translucent so that links behind them stay visible.
+    The table is drawn under the arm (a translucent slab as wide as the picture), each obstacle
+    behind or in front of the arm by depth (:meth:`order`), translucent so that links behind
+    it stay visible.
 
     Args:
         ax: 3-D axes.
@@ -191,6 +192,7 @@ class SceneArtist:
         bounds: The cube the picture shows.
 
     Attributes:
+        axes: The axes drawn on.
         collections: The artist of each object, by name (``"table"`` for the table).
     """
 
@@ -206,11 +208,34 @@ class SceneArtist:
             self._meshes[ob.name] = ob.mesh
         for name, mesh in self._meshes.items():
             coll = Poly3DCollection(list(mesh.vertices[mesh.faces]), linewidths=0.0,
-                                    zorder=0.2 if name == TABLE else 0.6)
+                                    zorder=0.2 if name == TABLE else _BEHIND)
             ax.add_collection3d(coll)
             self.collections[name] = coll
+        self.axes = ax
         self._hot: frozenset[str] | None = None
         self.set_contact(frozenset())
+
+    def order(self, ax: Axes3D, arm_points: npt.ArrayLike) -> None:
+        """Draw each obstacle in front of the arm or behind it, by depth.
+
+        In front when its centre is nearer the camera than the arm's, else behind. Each
+        collection is drawn whole in a fixed order (the arm's own triangles are sorted by depth
+        within its one collection), so an obstacle between the camera and the arm would
+        otherwise hide behind it; its translucency shows the arm through it.
+
+        Args:
+            ax: The axes (their camera's elevation and azimuth).
+            arm_points: Points of the posed arm ``(N, 3)`` [m] (its vertices).
+        """
+        elev, azim = np.radians(ax.elev), np.radians(ax.azim)
+        toward = np.array([np.cos(elev) * np.cos(azim), np.cos(elev) * np.sin(azim),
+                           np.sin(elev)])
+        arm_depth = float(np.mean(np.asarray(arm_points, dtype=float).reshape(-1, 3) @ toward))
+        for name, coll in self.collections.items():
+            if name == TABLE:
+                continue
+            near = float(self._meshes[name].vertices.mean(axis=0) @ toward) > arm_depth
+            coll.set_zorder(_IN_FRONT if near else _BEHIND)
 
     def set_contact(self, names: frozenset[str]) -> None:
         """Draw the objects named in ``names`` in :data:`CONTACT_COLOR`, the others plainly."""
@@ -227,17 +252,26 @@ class SceneArtist:
         self._hot = names
 
 
-def draw_scene(ax: Axes3D, drawing: SceneDrawing, bounds: Bounds) -> dict[str, Poly3DCollection]:
+#: Drawing orders of an obstacle behind the arm (drawn at 1.0) and in front of it.
+_BEHIND, _IN_FRONT = 0.6, 1.5
+
+
+def draw_scene(ax: Axes3D, drawing: SceneDrawing, bounds: Bounds,
+               arm_points: npt.ArrayLike | None = None) -> dict[str, Poly3DCollection]:
     """Draw the table and the obstacles on 3-D axes; the pair in contact in red.
 
     Args:
         ax: 3-D axes.
         drawing: What to draw (:func:`scene_drawing`).
         bounds: The cube the picture shows (the table is drawn as wide).
+        arm_points: Points of the posed arm: obstacles nearer the camera are drawn in front
+            of it (:meth:`SceneArtist.order`).
 
     Returns:
         The artist of each object drawn, by name (``"table"`` for the table).
     """
     artist = SceneArtist(ax, drawing.obstacles, drawing.table_height, bounds)
     artist.set_contact(drawing.highlighted)
+    if arm_points is not None:
+        artist.order(ax, arm_points)
     return artist.collections

@@ -275,3 +275,28 @@ def test_render_command_reports_the_first_path_sample_in_contact(
     assert main([*args[:-2], "--no-scene"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["first_contact"] is None and data["clearance"] is None
+
+
+def test_an_obstacle_nearer_the_camera_than_the_arm_is_drawn_over_it(so101) -> None:
+    """Collections are drawn whole in a fixed order: an obstacle between the camera and the
+    arm is drawn after the arm (over it, translucent), one behind the arm before it."""
+    from armctl.render.draw import setup_axes
+
+    q = so101.named_pose("home") if "home" in so101.spec.poses else so101.middle()
+    geo = BoundGeometry(so101)
+    arm_points = geo.pose_vertices(so101.fk_frames(q))
+    centre = arm_points.mean(axis=0)
+    for azim in (0.0, 90.0, -135.0):
+        toward = np.array([np.cos(np.radians(azim)), np.sin(np.radians(azim)), 0.0])
+        obstacles = tuple(
+            Obstacle(name, Sphere(0.02, Origin(tuple(centre + 0.5 * sign * toward))))  # type: ignore[arg-type]
+            for name, sign in (("front", 1.0), ("back", -1.0)))
+        scene = SceneSpec(table=None, obstacles=obstacles)
+        _, (ax,) = new_figure(projection="3d")
+        bounds = Bounds(tuple(centre), 0.8)
+        setup_axes(ax, bounds, Camera("test", 0.0, azim))
+        artist = ArmArtist(ax, geo)
+        artists = draw_scene(ax, scene_drawing(so101, q, scene), bounds,
+                             artist.set_pose(so101.fk_frames(q)))
+        arm_z = artist.collection.get_zorder()
+        assert artists["front"].get_zorder() > arm_z > artists["back"].get_zorder(), azim
