@@ -164,7 +164,7 @@ def cmd_info(args: argparse.Namespace) -> int:
                        "servos": {s.joint: {"id": s.id, "model": s.model} for s in bus.servos}}
         lines.append("")
         lines.append(f"bus: {bus.protocol.value} on {bus.port} at {bus.baudrate} bit/s, "
-                     f"{len(bus.servos)} servos")
+                     f"{len(bus.servos)} servo{'' if len(bus.servos) == 1 else 's'}")
     emit(args, data, "\n".join(lines))
     return 0
 

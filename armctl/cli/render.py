@@ -55,8 +55,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--elev", type=finite, help="camera elevation [deg] (overrides --view)")
     p.add_argument("--azim", type=finite, help="camera azimuth from +x [deg] (overrides --view)")
     p.add_argument("--frames", action="append", metavar="NAMES",
-                   help="frames drawn as axis triads: 'tool' (default), 'all', 'none', or "
-                   "comma-separated frame names; may be repeated")
+                   help="frames drawn as axis triads: 'tool' (default: the tool, or every end "
+                   "effector of an arm with several), 'all', 'none', or comma-separated frame "
+                   "names; may be repeated")
     p.add_argument("--target-xyz", nargs=3, type=finite, metavar=("X", "Y", "Z"),
                    help="draw a target position [m]")
     p.add_argument("--target-rpy", nargs=3, type=finite, metavar=("R", "P", "Y"),
@@ -217,7 +218,13 @@ def cmd_render(args: argparse.Namespace) -> int:
         lines.append(f"distance from the tool to the target: {fmt(pic.target_distance)} m")
     inside = arm.within_limits(q)
     if not inside:
-        lines.append("note: these joint values are outside the joint limits")
+        from armctl.errors import JointLimitError
+
+        try:
+            arm.check_limits(q)
+        except JointLimitError as exc:
+            lines.append("note: these joint values are outside the joint limits: "
+                         + str(exc).split("; nothing was sent")[0])
     emit(args, {"output": str(pic.path), "q": q, "views": [c.name for c in pic.cameras],
                 "tool_position": pic.tool_position, "target_distance": pic.target_distance,
                 "within_limits": inside,

@@ -308,7 +308,8 @@ def _parse_ball(sec: Section, name: str, kind: str, parent: str, child: str, ori
     if sec.has("axes"):
         raise sec.error(f"a {kind} joint is one 3-DOF joint and takes no 'axes'", "axes",
                         fix="remove 'axes'; 'axis' (default [0, 0, 1]) sets its twist axis, "
-                        "the centre of its swing cone")
+                        "the centre of its swing cone; its limits are written "
+                        + _BALL_LIMITS_FORM)
     axis = _axis(sec.child("axis")) if sec.has("axis") else (0.0, 0.0, 1.0)
     if not sec.has("limits"):
         return JointSpec(name, JointType.BALL, parent, child, origin, axis, Limits(), role,
@@ -330,6 +331,9 @@ def _parse_ball(sec: Section, name: str, kind: str, parent: str, child: str, ori
         swing = min(swing, math.pi)
     lower, upper = -math.inf, math.inf
     if lim.has("twist"):
+        if not isinstance(lim.value["twist"], dict):
+            raise lim.error("twist takes a range, not one angle", "twist",
+                            fix="write twist: {lower: -45 deg, upper: 45 deg}")
         tw = lim.child("twist").mapping()
         tw.check_keys(["lower", "upper"])
         lower, upper = tw.number("lower", angle=True), tw.number("upper", angle=True)
@@ -399,7 +403,9 @@ def _parse_poses(top: Section, actuated: list[JointSpec]) -> dict[str, dict[str,
         if isinstance(sec.value, list):  # the flattened joint vector q, in joint order
             if len(sec.value) != nq:
                 raise sec.error(f"pose {pose_name!r} has {len(sec.value)} values but the arm's "
-                                f"joint vector has {nq} ({_q_layout(actuated)})")
+                                f"joint vector has {nq} ({_q_layout(actuated)})",
+                                fix="give one value per entry in that order, or write the pose "
+                                "as a mapping {joint: value}")
             k = 0
             for j in actuated:
                 if j.type.nq == 1:
@@ -426,7 +432,8 @@ def _parse_poses(top: Section, actuated: list[JointSpec]) -> dict[str, dict[str,
                 _check_multi_pose(sec, pose_name, j, v)
             elif not j.limits.lower - 1e-12 <= v <= j.limits.upper + 1e-12:
                 raise sec.error(f"pose {pose_name!r}: joint {j.name!r} value {v:.6g} is outside "
-                                f"its limits [{j.limits.lower:.6g}, {j.limits.upper:.6g}]")
+                                f"its limits [{j.limits.lower:.6g}, {j.limits.upper:.6g}]",
+                                fix="give a value inside the joint's limits, or widen them")
         out[pose_name] = values
     return out
 
@@ -477,14 +484,19 @@ def _check_multi_pose(sec: Section, pose: str, j: JointSpec, v: tuple[float, ...
         for i, (x, lim) in enumerate(zip(v, j.axis_limits, strict=True)):
             if not lim.lower - 1e-12 <= x <= lim.upper + 1e-12:
                 raise sec.error(f"pose {pose!r}: joint {j.name!r} angle {i + 1} {x:.6g} is "
-                                f"outside its limits [{lim.lower:.6g}, {lim.upper:.6g}]")
+                                f"outside its limits [{lim.lower:.6g}, {lim.upper:.6g}]",
+                                fix="give an angle inside the limits, or widen them")
         return
     from armctl.spatial import swing_twist
 
     swing, twist = swing_twist(v, j.axis)
     if swing > j.swing + 1e-9:
         raise sec.error(f"pose {pose!r}: ball joint {j.name!r} swings {swing:.6g} rad, more "
-                        f"than its limit {j.swing:.6g} rad")
+                        f"than its limit {j.swing:.6g} rad",
+                        fix=f"give a rotation that turns its axis at most "
+                        f"{math.degrees(j.swing):.4g} deg, or widen limits.swing")
     if not j.limits.lower - 1e-9 <= twist <= j.limits.upper + 1e-9:
         raise sec.error(f"pose {pose!r}: ball joint {j.name!r} twist {twist:.6g} rad is outside "
-                        f"its limits [{j.limits.lower:.6g}, {j.limits.upper:.6g}]")
+                        f"its limits [{j.limits.lower:.6g}, {j.limits.upper:.6g}]",
+                        fix="give a rotation with less turn about the joint's axis, or widen "
+                        "limits.twist")

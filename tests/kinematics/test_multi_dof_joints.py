@@ -372,3 +372,36 @@ def test_the_simulated_bus_refuses_an_arm_with_multi_dof_joints(
     err = capsys.readouterr().err
     assert code == 2 and "multi-DOF joint(s) shoulder, wrist has no servos" in err
     assert "armctl render" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(("edit", "problem", "fix"), [
+    ({"limits": {"swing": "60 deg", "twist": "45 deg"}}, "twist takes a range",
+     "twist: {lower: -45 deg, upper: 45 deg}"),
+    ({"axes": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}, "takes no 'axes'", "swing: 60 deg, twist:"),
+])
+def test_ball_joint_config_mistakes_say_how_to_fix_them(tmp_path: Path, edit: dict,
+                                                        problem: str, fix: str) -> None:
+    import yaml
+
+    doc = yaml.safe_load(ARM)
+    ball = next(j for j in doc["joints"] if j["type"] in ("ball", "spherical"))
+    ball.pop("limits", None)
+    ball.update(edit)
+    with pytest.raises(ConfigError) as info:
+        _arm(tmp_path, yaml.safe_dump(doc))
+    text = str(info.value)
+    assert problem in text and fix in text, text
+
+
+def test_a_pose_outside_a_ball_joints_cone_says_how_to_fix_it(tmp_path: Path) -> None:
+    import yaml
+
+    doc = yaml.safe_load(ARM)
+    ball = next(j for j in doc["joints"] if j["type"] in ("ball", "spherical"))
+    ball["limits"] = {"swing": "30 deg"}
+    doc["poses"] = {"far": {"base_yaw": 0, ball["name"]: {"rpy": ["0 deg", "50 deg", "0 deg"]},
+                            "elbow": 0, "wrist": [0, 0]}}
+    with pytest.raises(ConfigError) as info:
+        _arm(tmp_path, yaml.safe_dump(doc))
+    text = str(info.value)
+    assert "swings" in text and "at most 30 deg, or widen limits.swing" in text, text
