@@ -102,9 +102,12 @@ def cmd_info(args: argparse.Namespace) -> int:
         else:
             lo_text = ", ".join(fmt(v * k, 3) for v in lower)
             hi_text = ", ".join(fmt(v * k, 3) for v in upper)
+        axes = js.axes if js.type is JointType.UNIVERSAL and js.axes else (js.axis,)
+        per_axis = vels if js.type is JointType.UNIVERSAL else [vel]
+        vel_text = ", ".join("-" if math.isnan(v) else f"{fmt(v * k, 2)} {unit}/s"
+                             for v in per_axis)
         rows.append([str(i), name, js.type.value, js.role.value, lo_text, hi_text, *shown_cal,
-                     unit, "-" if math.isnan(vel) else f"{fmt(vel * k, 2)} {unit}/s",
-                     " ".join(fmt(a, 3) for a in js.axis)])
+                     unit, vel_text, "; ".join(" ".join(fmt(a, 3) for a in ax) for ax in axes)])
         one = js.type.nq == 1
         joints.append({"index": i, "name": name, "type": js.type.value, "role": js.role.value,
                        "parent": js.parent, "child": js.child, "axis": list(js.axis),
