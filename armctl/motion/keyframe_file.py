@@ -283,6 +283,12 @@ def _ball_value(sec: Section, raw: object, joint: str, units: _Units, *keys: str
                             *keys, form, fix=forms)
         angles = np.array([units.to_si(sec, a, True, *keys, form, k) for k, a in
                            enumerate(vec)])
+        if units.angle is AngleUnit.RAD and float(np.abs(angles).max()) > 2.0 * math.pi:
+            raise sec.error(f"ball joint {joint!r}: '{form}' {vec} is more than a full turn "
+                            "(2 pi rad): the file's angle unit is rad, "
+                            "so these can only be degrees", *keys, form,
+                            fix="add 'units: {angle: deg}' at the top of the file, or "
+                            "write each angle with its unit ('30 deg')")
         rot = rpy_to_matrix(angles) if form == "rpy" else rotvec_to_matrix(angles)
         quat = matrix_to_quat(rot)
     else:

@@ -152,3 +152,18 @@ def test_a_joint_move_refuses_quaternions_that_are_not_unit() -> None:
         plan_joint_move(good, bad, limits)
     with pytest.raises(InputError, match=r"start of the move: ball joint 'left_hip'"):
         plan_joint_move(bad, good, limits)
+
+
+def test_degrees_in_a_file_of_radians_are_named(arm: armctl.Arm, tmp_path: Path) -> None:
+    path = tmp_path / "rad.yaml"
+    path.write_text(HEAD.replace("units: {angle: deg}\n", "")
+                    + "- {name: a, q: [{rpy: [0, 30, 0]}, 0, [0, 0]]}\n", encoding="utf-8")
+    with pytest.raises(ConfigError) as err:
+        load_keyframes(path, arm)
+    text = str(err.value)
+    assert "more than a full turn" in text and "can only be degrees" in text, text
+    assert "units: {angle: deg}" in (err.value.fix or "")
+    path.write_text(HEAD.replace("units: {angle: deg}\n", "")
+                    + "- {name: a, q: [{rpy: [0, 0.5, 0]}, 0, [0, 0]]}\n", encoding="utf-8")
+    program = load_keyframes(path, arm)  # radians that fit a turn are radians
+    assert np.allclose(program.keyframes[0].q[:4], _quat(Rotation.from_euler("xyz", [0, 0.5, 0])))
