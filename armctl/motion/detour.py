@@ -8,6 +8,16 @@ link moves between two samples from the joints' travel between them), and agains
 Where the timing blends past a vertex and the blend cuts into an obstacle, the arm stops at that
 vertex instead (then it follows the checked segments exactly), so the result is either free or
 refused; a refused plan moves nothing.
+
+An arm with universal and ball joints is searched on its configuration space
+(:class:`~armctl.motion.rrt_connect.JointSpace`, armctl's own RRT-Connect: OMPL's is given only
+vector spaces here): samples inside the limits (a ball joint's swing cone and twist range),
+distances in the tangent space, every segment along the shortest arc of each ball joint, checked
+continuously by the collision model along that arc and against the ball joints' limits at
+samples no more than :data:`LIMIT_SPACING` apart. The path is timed by
+:func:`~armctl.motion.multi_dof.plan_layout_run`: with :attr:`Interpolation.LINEAR` each ball
+joint turns on the great circle of each segment and rests at every vertex (the axis of its turn
+changes there), the scalar coordinates blend through the vertices unless a blend collides.
 """
 
 from __future__ import annotations
@@ -26,11 +36,15 @@ import numpy as np
 import numpy.typing as npt
 
 from armctl.errors import InputError, PlanningError
+from armctl.kinematics.model import KinematicModel
 from armctl.motion.errors import DetourError
 from armctl.motion.interpolate import Interpolation, plan_run
+from armctl.motion.layout import GeodesicMove, JointLayout
 from armctl.motion.limits import MotionLimits, check_speed, check_trajectory
+from armctl.motion.multi_dof import plan_layout_run
 from armctl.motion.plan import MotionPlan, Waypoint
 from armctl.motion.rrt_connect import (
+    JointSpace,
     SearchResult,
     finite_box,
     ompl_rrt_connect,
@@ -176,7 +190,30 @@ PROBE_SPACING = 0.1
 _MAX_PROBES = 64
 
 
-def _segment_check(checker: CollisionChecker) -> Callable[[Array, Array], bool]:
+#: Largest spacing [rad] of the samples at which a segment of an arm with ball joints is
+#: checked against the ball joints' swing and twist limits.
+LIMIT_SPACING = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class _Sphere:
+    """The configuration space of an arm with ball joints and the layout of its limits."""
+
+    space: JointSpace
+    layout: JointLayout
+
+    def inside(self, qs: Array) -> bool:
+        """Whether every configuration ``(n, nq)`` is inside the ball joints' limits."""
+        return self.layout.ball_violation(qs) is None
+
+    def segment_inside(self, a: Array, b: Array) -> bool:
+        """Whether the segment stays inside the ball joints' limits (dense samples)."""
+        n = max(2, int(np.ceil(self.space.distance(a, b) / LIMIT_SPACING)) + 1)
+        return self.inside(self.space.interpolate_many(a, b, np.linspace(0.0, 1.0, n)))
+
+
+def _segment_check(checker: CollisionChecker, sphere: _Sphere | None = None
+                   ) -> Callable[[Array, Array], bool]:
     """The test of a straight segment used by the search and the shortcutting.
 
     With a model that checks many configurations at once (``free_batch``), points every
@@ -184,7 +221,8 @@ def _segment_check(checker: CollisionChecker) -> Callable[[Array, Array], bool]:
     collide, and a colliding point refuses one at a fraction of the cost of the continuous
     check, which still decides every segment that passes. The continuous check is the model's
     ``segment_free`` when it has one (no contact report to build), else
-    ``first_contact_on_segment``.
+    ``first_contact_on_segment``. With ball joints (``sphere``) the probes lie on the
+    shortest arcs and the segment must also stay inside the ball joints' limits.
     """
     direct = getattr(checker, "segment_free", None)
     if callable(direct):
@@ -194,6 +232,20 @@ def _segment_check(checker: CollisionChecker) -> Callable[[Array, Array], bool]:
         def continuous(a: Array, b: Array) -> bool:
             return checker.first_contact_on_segment(a, b) is None
     batch = getattr(checker, "free_batch", None)
+    if sphere is not None:
+        space = sphere.space
+
+        def on_arcs(a: Array, b: Array) -> bool:
+            if not sphere.segment_inside(a, b):
+                return False
+            if callable(batch):
+                n = int(min(max(np.ceil(space.distance(a, b) / PROBE_SPACING), 2),
+                            _MAX_PROBES))
+                u = np.linspace(0.0, 1.0, n + 1)[1:-1]
+                if not np.all(batch(space.interpolate_many(a, b, u))):
+                    return False
+            return continuous(a, b)
+        return on_arcs
     if not callable(batch):
         return continuous
 
@@ -223,8 +275,15 @@ def _missing_ompl(exc: ImportError) -> Exception:
 
 
 def _search(options: DetourOptions, q0: Array, q1: Array, lo: Array, hi: Array,
-            checker: CollisionChecker, deadline: float, rng: np.random.Generator
-            ) -> SearchResult:
+            checker: CollisionChecker, deadline: float, rng: np.random.Generator,
+            sphere: _Sphere | None = None) -> SearchResult:
+    if sphere is not None:
+        def inside_free(q: Array) -> bool:
+            return sphere.inside(q[None, :]) and bool(checker.free(q))
+
+        return rrt_connect(q0, q1, lo, hi, inside_free, _segment_check(checker, sphere),
+                           deadline, rng, space=sphere.space)
+
     def state_free(q: Array) -> bool:
         return bool(checker.free(q))
 
@@ -246,7 +305,8 @@ def plan_detour(checker: CollisionChecker, q0: npt.ArrayLike, q1: npt.ArrayLike,
 
     Args:
         checker: The collision model (the arm with its scene).
-        q0: Start joint values (the present position) ``(dof,)`` [rad]/[m].
+        q0: Start joint values (the present position) ``(nq,)`` [rad]/[m] (a ball joint's
+            unit quaternion ``w, x, y, z``).
         q1: Goal joint values.
         limits: The arm's hard limits (the search stays inside the position limits).
         speed: Speed factor, 0.01 to 1, applied to the velocity, acceleration and jerk limits.
@@ -264,23 +324,26 @@ def plan_detour(checker: CollisionChecker, q0: npt.ArrayLike, q1: npt.ArrayLike,
         CollisionError: If the start or the goal itself collides.
         LimitViolation: If the goal is outside the joint limits.
         MissingExtraError: For :attr:`Planner.OMPL` without OMPL installed.
-        InputError: For a bad speed factor, joint vectors of the wrong size, or the limits of an
-            arm with universal or ball joints.
+        InputError: For a bad speed factor, joint vectors of the wrong size, or, for an arm
+            with ball joints, :attr:`Planner.OMPL` or a checker without the arm's model.
     """
     t0 = time.perf_counter()
     opts = options or DetourOptions()
-    if opts.planner is Planner.AUTO:
-        opts = replace(opts, planner=Planner.OMPL if _has_ompl() else Planner.BUILTIN)
     check_speed(speed)
-    if limits.layout is not None:
-        raise InputError("detour planning searches joint space coordinate by coordinate and "
-                         "supports arms of 1-DOF joints only; this arm has universal or ball "
-                         "joints: plan its moves with plan_joint_move or keyframe playback")
+    sphere = _sphere_of(checker, limits, opts)
+    if opts.planner is Planner.AUTO:
+        opts = replace(opts, planner=Planner.OMPL if _has_ompl() and sphere is None
+                       else Planner.BUILTIN)
     start = np.asarray(q0, dtype=float).reshape(-1)
     goal = np.asarray(q1, dtype=float).reshape(-1)
-    if start.size != limits.dof or goal.size != limits.dof:
-        raise InputError(f"start and goal need {limits.dof} joint values "
-                         f"({', '.join(limits.names)}); got {start.size} and {goal.size}")
+    nq = limits.dof if limits.layout is None else limits.layout.nq
+    if start.size != nq or goal.size != nq:
+        names = limits.names if limits.layout is None else limits.layout.q_names
+        raise InputError(f"start and goal need {nq} joint values "
+                         f"({', '.join(names)}); got {start.size} and {goal.size}")
+    if sphere is not None:
+        start = sphere.space.model.normalize(start)
+        goal = sphere.space.model.normalize(goal)
     limits.check_position(goal, "goal of the detour")
     for q, what in ((start, "start"), (goal, "goal")):
         if not checker.free(q):
@@ -288,36 +351,45 @@ def plan_detour(checker: CollisionChecker, q0: npt.ArrayLike, q1: npt.ArrayLike,
     deadline = t0 + opts.time_budget
     rng = np.random.default_rng(opts.seed)
     lo, hi = finite_box(limits.lower, limits.upper, start, goal)
+    if sphere is not None:
+        sphere = _Sphere(JointSpace(sphere.space.model, lo, hi), sphere.layout)
     name = f"RRT-Connect ({opts.planner.value})"
-    if checker.first_contact_on_segment(start, goal) is None:
+    if checker.first_contact_on_segment(start, goal) is None and (
+            sphere is None or sphere.segment_inside(start, goal)):
         found = SearchResult(np.vstack([start, goal]), 0.0, 2)
         planning = checker
     else:
         planning = _with_margin(checker, start, goal)
-        found = _search(opts, start, goal, lo, hi, planning, deadline, rng)
+        found = _search(opts, start, goal, lo, hi, planning, deadline, rng, sphere)
     if found.path is None:
         raise DetourError(f"no path found within the time budget ({found.states} states "
                           "searched)", opts.time_budget, time.perf_counter() - t0, name, _HINT)
     path = found.path
     t1 = time.perf_counter()
+    space = None if sphere is None else sphere.space
     if opts.simplify:
-        path = shortcut(path, _segment_check(planning), rng, deadline)
+        path = shortcut(path, _segment_check(planning, sphere), rng, deadline, space=space)
     t2 = time.perf_counter()
-    traj, knots, stops = _time_and_check(checker, path, limits, speed, opts.interpolation)
+    traj, knots, stops = _time_and_check(checker, path, limits, speed, opts.interpolation,
+                                         space)
     t3 = time.perf_counter()
     if traj is None:
-        raise DetourError("the timed trajectory collides even when stopping at every vertex "
-                          "of the free path", opts.time_budget, time.perf_counter() - t0, name,
+        raise DetourError("the timed trajectory collides or leaves the joint limits even when "
+                          "stopping at every vertex of the free path", opts.time_budget,
+                          time.perf_counter() - t0, name,
                           "lower the speed factor or report the case")
+    # a ball joint's spline run (cubic, min-jerk) is C1 on the sphere: its angular
+    # acceleration steps at the vertices, so its jerk is not bounded (its great-circle turns are)
     n = check_trajectory(traj, limits, check_jerk=True,
-                         hint="lower the speed factor or check the limits")
+                         hint="lower the speed factor or check the limits",
+                         ball_jerk=sphere is None or opts.interpolation is Interpolation.LINEAR)
     wps = tuple(Waypoint(float(knots[k]), path[k].copy(),
                          "start" if k == 0 else "goal" if k == len(path) - 1 else f"via {k}",
                          k in stops) for k in range(len(path)))
     elapsed = time.perf_counter() - t0
     extra: dict[str, object] = {
         "path": path, "planner": opts.planner.value, "states": found.states,
-        "path_length": path_length(path), "search_time": found.time,
+        "path_length": path_length(path, space), "search_time": found.time,
         "shortcut_time": t2 - t1, "timing_time": t3 - t2,
         "limit_check_time": elapsed - (t3 - t0),
     }
@@ -327,8 +399,31 @@ def plan_detour(checker: CollisionChecker, q0: npt.ArrayLike, q1: npt.ArrayLike,
                       f"detour through {len(path) - 2} via{'' if len(path) == 3 else 's'}", extra)
 
 
+def _sphere_of(checker: CollisionChecker, limits: MotionLimits, opts: DetourOptions
+               ) -> _Sphere | None:
+    """The configuration space of an arm with ball joints (``None``: a vector space).
+
+    Raises:
+        InputError: For ball joints with OMPL asked for, or with a checker that does not
+            carry the arm's model.
+    """
+    layout = limits.layout
+    if layout is None or not layout.balls:
+        return None
+    if opts.planner is Planner.OMPL:
+        raise InputError("OMPL's RRT-Connect is given joint vectors here, and a ball joint "
+                         f"({', '.join(b.name for b in layout.balls)}) is a unit quaternion: "
+                         "plan the detour with armctl's own search "
+                         "(DetourOptions(planner=Planner.BUILTIN), --planner builtin)")
+    model = getattr(checker, "model", None)
+    if not isinstance(model, KinematicModel):
+        raise InputError("a detour of an arm with ball joints needs a collision model that "
+                         "carries the arm's model (armctl.collision.CollisionModel)")
+    return _Sphere(JointSpace(model, limits.lower, limits.upper), layout)
+
+
 def _time_and_check(checker: CollisionChecker, path: Array, limits: MotionLimits,
-                    speed: float, kind: Interpolation
+                    speed: float, kind: Interpolation, space: JointSpace | None = None
                     ) -> tuple[Trajectory | None, Array, set[int]]:
     """Time the path; where a blend past a vertex collides, stop at that vertex and retime.
 
@@ -351,8 +446,11 @@ def _time_and_check(checker: CollisionChecker, path: Array, limits: MotionLimits
         for a, b in itertools.pairwise(stops):
             if (a, b) in runs:
                 continue
-            traj, knots = plan_run(path[a: b + 1], scaled, kind)
-            contact_time = _run_contact(checker, traj, path[a: b + 1], limits)
+            if limits.layout is None:
+                traj, knots = plan_run(path[a: b + 1], scaled, kind)
+            else:
+                traj, knots = plan_layout_run(path[a: b + 1], scaled, kind)
+            contact_time = _run_contact(checker, traj, path[a: b + 1], limits, space)
             if contact_time is None:
                 runs[a, b] = (traj, knots)
                 continue
@@ -380,7 +478,7 @@ _ON_SEGMENT = 1e-9
 
 
 def _run_contact(checker: CollisionChecker, traj: Trajectory, pts: Array,
-                 limits: MotionLimits) -> float | None:
+                 limits: MotionLimits, space: JointSpace | None = None) -> float | None:
     """When a run of the path first collides or leaves the position limits [s from its start].
 
     ``None`` if it is free and inside the limits.
@@ -390,7 +488,10 @@ def _run_contact(checker: CollisionChecker, traj: Trajectory, pts: Array,
     outside = _leaves_limits(traj, ts, qs, limits)
     if outside is not None:
         return outside
-    if len(pts) == 2:
+    if len(pts) == 2 and space is not None:
+        if _on_arc(space, pts[0], pts[1], qs):
+            return None
+    elif len(pts) == 2:
         # One segment at rest at both ends: if every sample lies on the segment and moves
         # one way along it, the run follows the segment, which was checked free.
         d = pts[1] - pts[0]
@@ -413,6 +514,27 @@ def _run_contact(checker: CollisionChecker, traj: Trajectory, pts: Array,
     return float(t) if t is not None else 0.0
 
 
+def _on_arc(space: JointSpace, a: Array, b: Array, qs: Array) -> bool:
+    """Whether samples ``qs`` lie on the segment from ``a`` to ``b``, moving one way along it.
+
+    A ball joint's segment is its shortest arc.
+
+    A point a fraction ``u`` along the segment is ``u`` times its length from ``a`` in the
+    tangent space (the scalar coordinates and the ball joints' angles all go at a uniform
+    rate in ``u``): each sample's fraction is its distance from ``a`` over the length, and the
+    sample must be the segment's point at that fraction.
+    """
+    length = space.distance(a, b)
+    dist = space.distances(qs, a)
+    if length <= 0.0:
+        return bool(np.all(dist <= _ON_SEGMENT))
+    u = dist / length
+    if not (np.all(np.diff(u) >= -1e-12) and u[-1] <= 1.0 + 1e-9):
+        return False
+    on = space.interpolate_many(a, b, np.minimum(u, 1.0))
+    return bool(np.max(space.row_distances(on, qs)) <= 1e-7 * max(length, 1.0))
+
+
 def _leaves_limits(traj: Trajectory, ts: Array, qs: Array, limits: MotionLimits
                    ) -> float | None:
     """When a run swings past a position limit (a blend overshooting a vertex), or ``None``.
@@ -425,9 +547,24 @@ def _leaves_limits(traj: Trajectory, ts: Array, qs: Array, limits: MotionLimits
     bad = np.flatnonzero(np.any((qs < lo) | (qs > hi), axis=1))
     if bad.size:
         return float(ts[bad[0]])
+    if limits.layout is not None:
+        ball = limits.layout.ball_violation(qs)
+        if ball is not None:
+            return float(ts[ball[0]])
     parts = traj.parts if isinstance(traj, Chain) else (traj,)
     starts = traj.offsets if isinstance(traj, Chain) else np.zeros(1)
     for part, t0 in zip(parts, starts, strict=False):
+        if isinstance(part, GeodesicMove):
+            sq = part.layout.scalar_q
+            pmin, pmax = part.position_extrema()
+            over = np.flatnonzero((pmin[sq] < lo[sq]) | (pmax[sq] > hi[sq]))
+            if over.size:
+                j = int(sq[over[0]])
+                bound = limits.lower[j] if pmin[j] < lo[j] else limits.upper[j]
+                q_a, q_b = part.sample(0.0)[0], part.sample(part.duration)[0]
+                near_start = abs(q_a[j] - bound) <= abs(q_b[j] - bound)
+                return float(t0) + (0.0 if near_start else part.duration)
+            continue
         if not isinstance(part, RuckigTrajectory):
             continue
         pmin, pmax = part.position_extrema()

@@ -10,20 +10,33 @@ segments are all free of collisions (each one checked continuously by the collis
 
 :func:`shortcut` then shortens a path by replacing stretches with straight segments that are
 free, and drops the vertices it no longer needs.
+
+Both work in the box of an arm of 1-DOF joints, and, given a :class:`JointSpace`, on the
+configuration space of an arm with universal and ball joints (armctl's own search only): samples
+by :meth:`~armctl.kinematics.model.KinematicModel.sample` (a ball joint's rotation uniform over
+its limits), distances in the tangent space (a ball joint counts its geodesic angle [rad], as a
+rotary joint counts its angle), steps and segments along
+:meth:`~armctl.kinematics.model.KinematicModel.interpolate` (a ball joint on its shortest arc).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
+from armctl.config.schema import JointType
+from armctl.kinematics.model import KinematicModel
+from armctl.motion.quaternions import conj, quat_exp, quat_log, quat_multiply
 from armctl.typing import Array
 
-__all__ = ["SearchResult", "SegmentFree", "ompl_rrt_connect", "rrt_connect", "shortcut"]
+__all__ = ["JointSpace", "SearchResult", "SegmentFree", "ompl_rrt_connect", "rrt_connect",
+           "shortcut"]
 
 
 #: ``segment_free(q0, q1)``: whether the straight joint-space segment from ``q0`` to ``q1``
@@ -60,6 +73,78 @@ def default_range(lower: Array, upper: Array) -> float:
     return RANGE_FRACTION * float(np.linalg.norm(upper - lower))
 
 
+class JointSpace:
+    """The configuration space of an arm with ball joints, as the search moves in it.
+
+    Scalar entries of ``q`` (1-DOF joints, a universal joint's angles) are sampled uniformly in
+    a box (the limits; a turn around the start and goal for continuous joints) and measured and
+    joined linearly; a ball joint's quaternion is sampled uniformly over the rotations inside its
+    limits, measured by its geodesic angle ``2 acos |<q_a, q_b>|`` [rad] and joined on its
+    shortest arc (slerp), as :meth:`KinematicModel.interpolate` joins it.
+
+    Args:
+        model: The arm.
+        lower: Lowest values ``(nq,)`` of the scalar entries to sample (finite; the ball joints'
+            entries are ignored).
+        upper: Highest values ``(nq,)``.
+    """
+
+    def __init__(self, model: KinematicModel, lower: Array, upper: Array):
+        self.model = model
+        self.lower = np.asarray(lower, dtype=float)
+        self.upper = np.asarray(upper, dtype=float)
+        balls = [model.q_index(i) for i, t in enumerate(model.joint_types)
+                 if t is JointType.BALL]
+        self.balls: tuple[slice, ...] = tuple(balls)
+        mask = np.ones(model.nq, dtype=bool)
+        for sl in balls:
+            mask[sl] = False
+        self.scalar: npt.NDArray[np.intp] = np.flatnonzero(mask)
+
+    def sample(self, rng: np.random.Generator) -> Array:
+        """A random configuration ``(nq,)``: scalar entries in the box, balls inside limits."""
+        q = self.model.sample(rng)
+        q[self.scalar] = rng.uniform(self.lower[self.scalar], self.upper[self.scalar])
+        return q
+
+    def distances(self, pts: Array, q: Array) -> Array:
+        """Tangent-space distances ``(n,)`` of configurations ``(n, nq)`` from ``q`` ``(nq,)``."""
+        d = pts[:, self.scalar] - q[self.scalar]
+        out = np.einsum("ij,ij->i", d, d)
+        for sl in self.balls:
+            c = np.minimum(np.abs(pts[:, sl] @ q[sl]), 1.0)
+            out += (2.0 * np.arccos(c)) ** 2
+        return np.asarray(np.sqrt(out))
+
+    def row_distances(self, a: Array, b: Array) -> Array:
+        """Tangent-space distances ``(n,)`` between the rows of ``a`` and ``b`` ``(n, nq)``."""
+        d = a[:, self.scalar] - b[:, self.scalar]
+        out = np.einsum("ij,ij->i", d, d)
+        for sl in self.balls:
+            c = np.minimum(np.abs(np.einsum("ij,ij->i", a[:, sl], b[:, sl])), 1.0)
+            out += (2.0 * np.arccos(c)) ** 2
+        return np.asarray(np.sqrt(out))
+
+    def distance(self, a: Array, b: Array) -> float:
+        """The tangent-space distance of two configurations [rad]/[m]."""
+        return float(self.distances(a[None, :], b)[0])
+
+    def interpolate(self, a: Array, b: Array, u: float) -> Array:
+        """The configuration a fraction ``u`` from ``a`` to ``b`` (balls on the shortest arc)."""
+        return self.interpolate_many(a, b, np.array([u]))[0]
+
+    def interpolate_many(self, a: Array, b: Array, us: Array) -> Array:
+        """Configurations ``(n, nq)`` at fractions ``us`` ``(n,)`` from ``a`` to ``b``."""
+        u = np.asarray(us, dtype=float)
+        out = np.tile(a, (u.size, 1))
+        out[:, self.scalar] = a[self.scalar] + u[:, None] * (b[self.scalar] - a[self.scalar])
+        for sl in self.balls:
+            rot = quat_log(quat_multiply(conj(a[sl]), b[sl]))
+            quats = quat_multiply(a[sl], quat_exp(u[:, None] * rot))
+            out[:, sl] = quats / np.linalg.norm(quats, axis=1, keepdims=True)
+        return out
+
+
 class _Tree:
     """Joint vectors with their parent's index, in a growing array."""
 
@@ -79,7 +164,9 @@ class _Tree:
         self.n += 1
         return self.n - 1
 
-    def nearest(self, q: Array) -> int:
+    def nearest(self, q: Array, space: JointSpace | None = None) -> int:
+        if space is not None:
+            return int(np.argmin(space.distances(self.q[: self.n], q)))
         d = self.q[: self.n] - q
         return int(np.argmin(np.einsum("ij,ij->i", d, d)))
 
@@ -92,8 +179,14 @@ class _Tree:
         return out[::-1]
 
 
-def _steer(a: Array, b: Array, step: float) -> tuple[Array, bool]:
+def _steer(a: Array, b: Array, step: float, space: JointSpace | None = None
+           ) -> tuple[Array, bool]:
     """The point ``step`` from ``a`` towards ``b`` (``b`` when closer), and whether it is ``b``."""
+    if space is not None:
+        dist = space.distance(a, b)
+        if dist <= step:
+            return b, True
+        return space.interpolate(a, b, step / dist), False
     d = b - a
     dist = float(np.sqrt(d @ d))
     if dist <= step:
@@ -103,7 +196,8 @@ def _steer(a: Array, b: Array, step: float) -> tuple[Array, bool]:
 
 def rrt_connect(start: Array, goal: Array, lower: Array, upper: Array,
                 state_free: StateFree, segment_free: SegmentFree, deadline: float,
-                rng: np.random.Generator, step: float | None = None) -> SearchResult:
+                rng: np.random.Generator, step: float | None = None,
+                space: JointSpace | None = None) -> SearchResult:
     """RRT-Connect: two trees, from the start and from the goal, grown until they meet.
 
     Each round samples a configuration uniformly in the joint box, extends one tree by one step
@@ -120,28 +214,36 @@ def rrt_connect(start: Array, goal: Array, lower: Array, upper: Array,
         deadline: ``time.perf_counter()`` value at which to give up [s].
         rng: The random generator (seeded by the caller).
         step: Longest step of a tree [rad]/[m]; ``None``: :func:`default_range`.
+        space: The configuration space of an arm with ball joints (``None``: the box of an
+            arm of 1-DOF joints, ``start`` and ``goal`` of ``dof`` entries). With it, ``lower``
+            and ``upper`` bound the scalar entries, and :func:`default_range` is taken over
+            the scalar entries' box and pi per ball joint.
 
     Returns:
         The path (start and goal included), or no path when the deadline passed.
     """
     t0 = time.perf_counter()
-    step = default_range(lower, upper) if step is None else step
+    if step is None:
+        step = (default_range(lower, upper) if space is None
+                else RANGE_FRACTION * math.hypot(
+                    float(np.linalg.norm(space.upper[space.scalar] - space.lower[space.scalar])),
+                    math.pi * math.sqrt(len(space.balls))))
     trees = (_Tree(np.asarray(start, dtype=float)), _Tree(np.asarray(goal, dtype=float)))
     grow, other = 0, 1
     while time.perf_counter() < deadline:
-        sample = rng.uniform(lower, upper)
+        sample = rng.uniform(lower, upper) if space is None else space.sample(rng)
         a = trees[grow]
-        i = a.nearest(sample)
-        q, _ = _steer(a.q[i], sample, step)
+        i = a.nearest(sample, space)
+        q, _ = _steer(a.q[i], sample, step, space)
         if not (state_free(q) and segment_free(a.q[i], q)):
             grow, other = other, grow
             continue
         new = a.add(q, i)
         b = trees[other]
         # Connect: the other tree walks towards the new vertex while its steps are free.
-        j = b.nearest(q)
+        j = b.nearest(q, space)
         while True:
-            qb, reached = _steer(b.q[j], q, step)
+            qb, reached = _steer(b.q[j], q, step, space)
             if not ((reached or state_free(qb)) and segment_free(b.q[j], qb)):
                 break
             if reached:
@@ -226,23 +328,35 @@ def ompl_rrt_connect(start: Array, goal: Array, lower: Array, upper: Array,
     return SearchResult(path, time.perf_counter() - t0, n)
 
 
-def _lengths(pts: Array) -> Array:
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+def _steps(pts: Array, space: JointSpace | None) -> Array:
+    """Lengths ``(n - 1,)`` of a path's segments."""
+    if space is None:
+        return np.asarray(np.linalg.norm(np.diff(pts, axis=0), axis=1))
+    return np.array([space.distance(a, b) for a, b in itertools.pairwise(pts)])
 
 
-def _point_at(pts: Array, cum: Array, s: float) -> tuple[int, Array]:
+def _lengths(pts: Array, space: JointSpace | None = None) -> Array:
+    if space is None:
+        return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    return np.concatenate([[0.0], np.cumsum(_steps(pts, space))])
+
+
+def _point_at(pts: Array, cum: Array, s: float, space: JointSpace | None = None
+              ) -> tuple[int, Array]:
     """The segment index ``i`` holding arc length ``s`` and the point there."""
     i = int(np.clip(np.searchsorted(cum, s, side="right") - 1, 0, pts.shape[0] - 2))
     h = cum[i + 1] - cum[i]
     u = 0.0 if h <= 0.0 else (s - cum[i]) / h
+    if space is not None:
+        return i, space.interpolate(pts[i], pts[i + 1], min(max(u, 0.0), 1.0))
     return i, pts[i] + (pts[i + 1] - pts[i]) * min(max(u, 0.0), 1.0)
 
 
-def _dedupe(pts: Array) -> Array:
-    keep = np.concatenate([[True], np.linalg.norm(np.diff(pts, axis=0), axis=1) > _SAME])
+def _dedupe(pts: Array, space: JointSpace | None = None) -> Array:
+    keep = np.concatenate([[True], _steps(pts, space) > _SAME])
     keep[-1] = True
     out = pts[keep]
-    if out.shape[0] >= 2 and np.linalg.norm(out[-1] - out[-2]) <= _SAME:
+    if out.shape[0] >= 2 and _steps(out[-2:], space)[0] <= _SAME:
         out = np.delete(out, -2, axis=0)
     return out
 
@@ -266,7 +380,8 @@ def reduce_vertices(pts: Array, segment_free: SegmentFree, deadline: float) -> A
 
 
 def shortcut(path: Array, segment_free: SegmentFree, rng: np.random.Generator,
-             deadline: float, attempts: int | None = None) -> Array:
+             deadline: float, attempts: int | None = None, space: JointSpace | None = None
+             ) -> Array:
     """A shorter path: free straight segments between points of the path replace stretches.
 
     First each vertex is joined to the farthest later vertex that it sees (a free straight
@@ -280,11 +395,13 @@ def shortcut(path: Array, segment_free: SegmentFree, rng: np.random.Generator,
         rng: The random generator (seeded by the caller).
         deadline: ``time.perf_counter()`` value at which to stop [s] (the path so far is kept).
         attempts: Random pairs to try; ``None``: ``max(20, 4 n)`` for ``n`` vertices.
+        space: The configuration space of an arm with ball joints (lengths in the tangent
+            space, points along the shortest arcs); ``None``: the box of 1-DOF joints.
 
     Returns:
         The shorter path, with the same first and last vertex.
     """
-    pts = _dedupe(np.asarray(path, dtype=float))
+    pts = _dedupe(np.asarray(path, dtype=float), space)
     if pts.shape[0] <= 2:
         return pts
     pts = reduce_vertices(pts, segment_free, deadline)
@@ -292,19 +409,21 @@ def shortcut(path: Array, segment_free: SegmentFree, rng: np.random.Generator,
     for _ in range(tries):
         if pts.shape[0] <= 2 or time.perf_counter() > deadline:
             break
-        cum = _lengths(pts)
+        cum = _lengths(pts, space)
         total = float(cum[-1])
         s1, s2 = np.sort(rng.uniform(0.0, total, 2))
-        i, p1 = _point_at(pts, cum, float(s1))
-        j, p2 = _point_at(pts, cum, float(s2))
+        i, p1 = _point_at(pts, cum, float(s1), space)
+        j, p2 = _point_at(pts, cum, float(s2), space)
         if j <= i:
             continue  # on one segment: already straight
         # Only worth it if it saves length (the bend between them is not already straight).
         old = (cum[i + 1] - s1) + (s2 - cum[j]) + (cum[j] - cum[i + 1])
-        if float(np.linalg.norm(p2 - p1)) >= old * (1.0 - 1e-6):
+        direct = (float(np.linalg.norm(p2 - p1)) if space is None
+                  else space.distance(p1, p2))
+        if direct >= old * (1.0 - 1e-6):
             continue
         if segment_free(p1, p2):
-            pts = _dedupe(np.vstack([pts[: i + 1], p1, p2, pts[j + 1:]]))
+            pts = _dedupe(np.vstack([pts[: i + 1], p1, p2, pts[j + 1:]]), space)
     # Drop vertices that the shortcuts made unnecessary.
     k = 1
     while k < pts.shape[0] - 1 and time.perf_counter() <= deadline:
@@ -315,9 +434,12 @@ def shortcut(path: Array, segment_free: SegmentFree, rng: np.random.Generator,
     return pts
 
 
-def path_length(path: Array) -> float:
-    """Length of a joint path, the sum of its segments' Euclidean lengths [rad]/[m]."""
-    return float(_lengths(np.asarray(path, dtype=float))[-1]) if len(path) > 1 else 0.0
+def path_length(path: Array, space: JointSpace | None = None) -> float:
+    """Length of a joint path, the sum of its segments' lengths [rad]/[m].
+
+    Euclidean, or in the tangent space of ``space`` (a ball joint's geodesic angle).
+    """
+    return float(_lengths(np.asarray(path, dtype=float), space)[-1]) if len(path) > 1 else 0.0
 
 
 def finite_box(lower: Array, upper: Array, *points: Array) -> tuple[Array, Array]:

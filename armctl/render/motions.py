@@ -84,7 +84,8 @@ class PlannedLine:
 
     Attributes:
         plan: The checked motion plan.
-        samples: Joint values at the IK samples along the line ``(n + 1, dof)``.
+        samples: Joint values at the IK samples along the line ``(n + 1, nq)`` (ball joints
+            as unit quaternions).
         line: Start and end of the line ``(2, 3)`` [m].
     """
 
@@ -99,7 +100,7 @@ def plan_straight_line(arm: Arm, q_start: npt.ArrayLike, goal_pose: npt.ArrayLik
 
     Args:
         arm: The arm.
-        q_start: Start joint values ``(dof,)``.
+        q_start: Start joint values ``(nq,)`` (ball joints as unit quaternions).
         goal_pose: ``(4, 4)`` goal of the tool frame.
         oriented: Whether the goal's orientation counts (else position only).
         solver: IK solver name.
@@ -110,7 +111,7 @@ def plan_straight_line(arm: Arm, q_start: npt.ArrayLike, goal_pose: npt.ArrayLik
     """
     from armctl.ik import PoseGoal, PositionGoal
     from armctl.motion import MotionLimits, check_speed
-    from armctl.motion.cartesian import LineOptions, plan_line
+    from armctl.motion.cartesian import LineOptions, SpherePathTrajectory, plan_line
     from armctl.motion.trajectory import PathTrajectory
 
     check_speed(speed)
@@ -120,9 +121,10 @@ def plan_straight_line(arm: Arm, q_start: npt.ArrayLike, goal_pose: npt.ArrayLik
     plan = plan_line(arm, q0, goal, MotionLimits.from_model(arm), speed,
                      LineOptions(solver=solver))
     traj = plan.trajectory
-    if isinstance(traj, PathTrajectory):  # the joint path passes through the IK samples
+    if isinstance(traj, (PathTrajectory, SpherePathTrajectory)):
+        # the joint path passes through the IK samples (at its breakpoints in s)
         samples = traj.path.sample_many(traj.path.breakpoints())[0]
-    else:  # pragma: no cover - plan_line always builds a PathTrajectory
+    else:  # pragma: no cover - plan_line always builds one of the two
         samples = sample_plan(plan, 50.0)[1]
     line = np.vstack([arm.fk(q0)[:3, 3], pose[:3, 3]])
     return PlannedLine(plan, samples, line)

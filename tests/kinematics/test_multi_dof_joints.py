@@ -286,11 +286,11 @@ def test_what_supports_1_dof_joints_only_refuses_clearly(tmp_path: Path) -> None
 
     with pytest.raises(NoDecompositionError, match="multi-DOF joint"):
         arm.ik_all(np.eye(4))
-    # joint moves and keyframe playback take such arms (tests/motion/test_multi_dof_motion.py);
-    # the planners that work coordinate by coordinate refuse them
+    # joint moves, keyframe playback, straight lines and detours take such arms
+    # (tests/motion/test_multi_dof_*.py); a detour needs the collision model of the arm
     from armctl.motion import plan_detour
 
-    with pytest.raises(InputError, match=r"detour planning .* 1-DOF joints only"):
+    with pytest.raises(InputError, match=r"detour of an arm with ball joints needs a collision"):
         plan_detour(None, arm.neutral(), arm.neutral(),  # type: ignore[arg-type]
                     MotionLimits.from_model(arm))
     from armctl.ik.batch import solve_batch

@@ -342,16 +342,22 @@ def test_a_walk_of_the_figure_with_ball_hips_and_shoulders(figure: armctl.Arm,
     assert np.linalg.norm(after - before) < 0.02 * np.linalg.norm(before)
 
 
-def test_planners_that_work_coordinate_by_coordinate_refuse_clearly(arm: armctl.Arm) -> None:
+def test_straight_lines_and_detours_refuse_what_they_cannot_plan(arm: armctl.Arm) -> None:
     from armctl.ik import PositionGoal as Goal
-    from armctl.motion import plan_detour
+    from armctl.motion import DetourOptions, Planner, plan_detour
     from armctl.motion.cartesian import plan_line
 
     limits = MotionLimits.from_model(arm)
-    with pytest.raises(InputError, match=r"straight-line tool moves .* 'shoulder' \(ball\)"):
-        plan_line(arm, arm.named_pose("home"), Goal([0.3, 0.1, 0.4]), limits)
-    with pytest.raises(InputError, match=r"detour planning .* 1-DOF joints only"):
+    one_dof = MotionLimits(limits.names, limits.lower, limits.upper, limits.velocity,
+                           limits.acceleration, limits.jerk, limits.units)
+    with pytest.raises(InputError,
+                       match=r"universal or ball joints .* \(MotionLimits.from_model\)"):
+        plan_line(arm, arm.named_pose("home"), Goal([0.3, 0.1, 0.4]), one_dof)
+    with pytest.raises(InputError, match=r"detour of an arm with ball joints needs a collision"):
         plan_detour(None, arm.neutral(), arm.neutral(), limits)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=r"OMPL.*ball joint \(shoulder\).*Planner.BUILTIN"):
+        plan_detour(None, arm.neutral(), arm.neutral(), limits,  # type: ignore[arg-type]
+                    options=DetourOptions(planner=Planner.OMPL))
 
 
 BALL_ONLY = """armctl: 1
