@@ -131,6 +131,16 @@ class QuaternionSpline:
         self._w = np.stack([quat_log(quat_multiply(_conj(a), b))
                             for a, b in ((c0, c1), (c1, c2), (c2, c3))], 1)  # (n-1, 3, 3)
 
+    def speed_bounds(self) -> Array:
+        """Per segment a bound ``(n - 1,)`` [rad/s] that its angular speed never exceeds.
+
+        The body angular velocity is ``Σ_i R_i^T ... w_i B_i'(u) / h`` (see :meth:`sample`), a sum
+        of turned vectors, so its norm is at most ``Σ_i |w_i| |B_i'(u)| / h``; on ``0 <= u <= 1``
+        ``|B1'| <= 3``, ``|B2'| <= 3/2``, ``|B3'| <= 3``.
+        """
+        norms = np.linalg.norm(self._w, axis=2)  # (n-1, 3)
+        return (norms @ np.array([3.0, 1.5, 3.0])) / np.diff(self.times)
+
     def sample(self, t: npt.ArrayLike) -> tuple[Array, Array, Array]:
         """Rotation, body angular velocity and acceleration at times ``t`` [s].
 
