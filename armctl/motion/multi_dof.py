@@ -272,19 +272,19 @@ def plan_layout_run(q: npt.ArrayLike, limits: MotionLimits, kind: Interpolation,
 def _ball_leaves(spline: QuaternionSpline, k: int, ball: BallJoint) -> bool:
     """Whether segment ``k`` of a ball joint's spline turns it outside its swing or twist limits.
 
-    A bound that cannot miss: the segment's angular speed is at most ``W``
-    (:meth:`QuaternionSpline.speed_bounds`). The swing (the angle of the twist axis from its
-    rest direction) is 1-Lipschitz in the angle turned, so between samples ``a`` and ``b``,
-    ``δ`` apart, it stays below ``(s_a + s_b + W δ) / 2``; the twist ``2 atan2(p, w)`` changes
-    at most at ``W / cos(swing / 2)`` (``|(w', p')| <= |q'| = |ω| / 2``), which bounds it the
-    same way with the swing's bound in the cosine. Starting from 48 samples, an interval whose
+    A bound that cannot miss: between two samples the angular speed is at most ``W``
+    (:meth:`QuaternionSpline.speed_bound`, from the spline's control rotations). The swing (the
+    angle of the twist axis from its rest direction) is 1-Lipschitz in the angle turned, so
+    between samples ``a`` and ``b``, ``δ`` apart, it stays below ``(s_a + s_b + W δ) / 2``;
+    the twist ``2 atan2(p, w)`` changes at most at ``W / cos(swing / 2)``
+    (``|(w', p')| <= |q'| = |ω| / 2``), which bounds it the same way with the swing's bound in
+    the cosine. Starting from 48 samples, an interval whose
     bounds do not prove it inside is halved until they do, a sample is outside, or it is short
     enough (``W δ / 2`` within the tolerance) that the samples decide. Too many intervals
     (a path running along its limit) or halvings count as leaving: the run then stops at a
     keyframe.
     """
     t0, t1 = float(spline.times[k]), float(spline.times[k + 1])
-    speed = float(spline.speed_bounds()[k])
     half = _BALL_TOL / 2.0
     cone = ball.swing < math.pi
     twisted = math.isfinite(ball.lower) or math.isfinite(ball.upper)
@@ -303,7 +303,7 @@ def _ball_leaves(spline: QuaternionSpline, k: int, ball: BallJoint) -> bool:
                         or np.any((wb < ball.lower - half) | (wb > ball.upper + half))):
             return True
         delta = tb - ta
-        spread = speed * delta
+        spread = spline.speed_bound(k, (ta - t0) / (t1 - t0), (tb - t0) / (t1 - t0)) * delta
         s_hi = np.minimum((sa + sb + spread) / 2.0, math.pi)
         ok = (s_hi <= ball.swing + _BALL_TOL) if cone else np.ones(s_hi.size, dtype=bool)
         short = spread <= half  # the samples (checked within half the tolerance) decide

@@ -252,3 +252,24 @@ def test_a_shoulder_keyframe_at_its_swing_limit_plans_inside_it(figure: armctl.A
     assert swing.max() <= ball.swing + TOL
     assert np.all((twist >= ball.lower - TOL) & (twist <= ball.upper + TOL))
     _assert_scalar_inside(q, limits)
+
+
+def test_the_speed_bound_is_never_exceeded() -> None:
+    """The angular speed by finite differences of scipy rotations stays under the bound."""
+    rng = np.random.default_rng(8)
+    spline = _random_spline(rng, 1.5)
+    dt = 1e-6
+    for k in range(4):
+        t0, t1 = spline.times[k], spline.times[k + 1]
+        cuts = np.sort(rng.uniform(0.0, 1.0, 12))
+        bounds = spline.speed_bound(np.full(11, k), cuts[:-1], cuts[1:])
+        for a, b, bound in zip(cuts[:-1], cuts[1:], bounds, strict=True):
+            ts = t0 + (t1 - t0) * np.linspace(a, b, 200)
+            ts = np.clip(ts, t0 + dt, t1 - dt)
+            r0 = Rotation.from_quat(np.roll(spline(ts - dt), -1, axis=1))
+            r1 = Rotation.from_quat(np.roll(spline(ts + dt), -1, axis=1))
+            speed = (r0.inv() * r1).magnitude() / (2.0 * dt)
+            assert speed.max() <= bound * (1.0 + 1e-6) + 1e-9
+    # the run ends at rest: the bound falls to zero towards its last keyframe
+    last = spline.speed_bound([3, 3], [0.5, 0.999], [1.0, 1.0])
+    assert last[1] < 0.01 * last[0]
