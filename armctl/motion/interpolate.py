@@ -187,11 +187,12 @@ def piece_extrema(poly: PiecewisePolynomial) -> tuple[Array, Array]:
     """Exact lowest and highest value of every coordinate on every piece ``(m, dof)`` each.
 
     A polynomial piece takes its extremes at its ends or where its derivative vanishes: for a
-    cubic at the roots of a quadratic (closed form), for a quintic (minimum jerk) at the roots of
-    a quartic (:func:`numpy.roots`). Every candidate is a point of the piece (a root's real part,
-    clipped to the piece), so the result never exceeds the piece's true range, and it reaches it
-    up to the rounding of the roots (a double root is found to ``sqrt(eps)`` of its place, where
-    the value is flat to second order).
+    cubic at the roots of a quadratic (closed form), for a quintic (minimum jerk) at the roots
+    of a quartic (the eigenvalues of its companion matrix, as :func:`numpy.roots` finds them).
+    Every candidate is a point of the piece (a root's real part, clipped to the piece), so the
+    result never exceeds the piece's true range, and it reaches it up to the rounding of the
+    roots (a double root is found to ``sqrt(eps)`` of its place, where the value is flat to
+    second order).
     """
     breaks = poly.breakpoints()
     c = poly._c  # (m, order, dof), ascending powers of the time within the piece
@@ -206,15 +207,23 @@ def piece_extrema(poly: PiecewisePolynomial) -> tuple[Array, Array]:
         with np.errstate(divide="ignore", invalid="ignore"):
             taus += [np.where(a != 0.0, qq / a, -k / b), np.where(qq != 0.0, k / qq, 0.0)]
     elif order > 2:
-        powers = np.arange(1, order, dtype=float)
-        roots = np.zeros((order - 2, m, dof))  # 0: the piece's start, a candidate anyway
-        for i in range(m):
-            for j in range(dof):
-                deriv = (c[i, 1:, j] * powers)[::-1]  # highest power first
-                if np.any(deriv != 0.0):
-                    r = np.roots(deriv).real  # leading zeros dropped: fewer roots
-                    roots[: r.size, i, j] = r
-        taus += list(roots)
+        # roots of the derivative as the eigenvalues of its companion matrix (as numpy.roots
+        # finds them), all pieces and coordinates at once; a zero leading coefficient (a piece
+        # of lower degree) by numpy.roots, which drops it
+        deg = order - 2
+        deriv = (c[:, 1:, :] * np.arange(1, order, dtype=float)[None, :, None])[:, ::-1, :]
+        flat = np.moveaxis(deriv, 1, -1).reshape(m * dof, deg + 1)  # highest power first
+        roots = np.zeros((m * dof, deg))  # 0: the piece's start, a candidate anyway
+        full = flat[:, 0] != 0.0
+        if full.any():
+            comp = np.zeros((int(full.sum()), deg, deg))
+            comp[:, 0, :] = -flat[full, 1:] / flat[full, :1]
+            comp[:, np.arange(1, deg), np.arange(deg - 1)] = 1.0
+            roots[full] = np.linalg.eigvals(comp).real
+        for row in np.flatnonzero(~full & np.any(flat != 0.0, axis=1)):
+            r = np.roots(flat[row]).real
+            roots[row, : r.size] = r
+        taus += list(np.moveaxis(roots.reshape(m, dof, deg), -1, 0))
     lo = np.full((m, dof), np.inf)
     hi = np.full((m, dof), -np.inf)
     for tau in taus:
