@@ -12,6 +12,9 @@ for an arm of 1-DOF joints; a ball joint turns on the sphere:
   and Shin (:class:`~armctl.motion.quaternion_spline.QuaternionSpline`): the angular velocity
   is continuous through the keyframes. The segment durations are timed near-optimally as for
   1-DOF arms, the ball joint's rates being the norms of its angular velocity and acceleration.
+  A run that leaves a position limit between keyframes (a scalar coordinate, found from its
+  segments' exact extremes, or a ball joint's swing or twist, found by a bound on its spline's
+  angular speed that cannot miss) stops at the keyframe next to it, as a 1-DOF arm's run does.
 """
 
 from __future__ import annotations
