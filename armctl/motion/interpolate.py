@@ -20,11 +20,14 @@ from armctl.motion.profiles import quintic_segment, ruckig_move
 from armctl.motion.trajectory import Chain, PiecewisePolynomial, RuckigTrajectory, Trajectory
 from armctl.typing import Array
 
-__all__ = ["Interpolation", "cubic_knot_velocities", "plan_run", "spline_through"]
+__all__ = ["Interpolation", "cubic_knot_velocities", "piece_extrema", "plan_run", "spline_through",
+           "split_knot"]
 
 
 _MARGIN = 1.01  # final uniform slow-down so that samples between the test points stay inside
 _SAMPLES_PER_SEGMENT = 48
+#: Slack of the position limits in the overshoot test [rad]/[m], that of the final check.
+_LIMIT_TOL = 1e-9
 
 
 class Interpolation(Enum):
@@ -180,20 +183,99 @@ def plan_run(q: npt.ArrayLike, limits: MotionLimits, kind: Interpolation,
     return Chain([first, second]), np.concatenate([t1, t2[1:] + first.duration])
 
 
-def _overshoot_knot(traj: PiecewisePolynomial, limits: MotionLimits) -> int | None:
-    """An inner knot next to the first piece that leaves the position limits, if any."""
+def piece_extrema(poly: PiecewisePolynomial) -> tuple[Array, Array]:
+    """Exact lowest and highest value of every coordinate on every piece ``(m, dof)`` each.
+
+    A polynomial piece takes its extremes at its ends or where its derivative vanishes: for a
+    cubic at the roots of a quadratic (closed form), for a quintic (minimum jerk) at the roots
+    of a quartic (the eigenvalues of its companion matrix, as :func:`numpy.roots` finds them).
+    Every candidate is a point of the piece (a root's real part, clipped to the piece), so the
+    result never exceeds the piece's true range, and it reaches it up to the rounding of the
+    roots (a double root is found to ``sqrt(eps)`` of its place, where the value is flat to
+    second order).
+    """
+    breaks = poly.breakpoints()
+    c = poly._c  # (m, order, dof), ascending powers of the time within the piece
+    m, order, dof = c.shape
+    h = np.diff(breaks)
+    taus = [np.zeros((m, dof)), np.broadcast_to(h[:, None], (m, dof))]
+    if order == 4:
+        # derivative 3 c3 t^2 + 2 c2 t + c1: both roots by the cancellation-free formula
+        a, b, k = 3.0 * c[:, 3], 2.0 * c[:, 2], c[:, 1]
+        disc = np.maximum(b * b - 4.0 * a * k, 0.0)
+        qq = -0.5 * (b + np.copysign(np.sqrt(disc), b))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            taus += [np.where(a != 0.0, qq / a, -k / b), np.where(qq != 0.0, k / qq, 0.0)]
+    elif order > 2:
+        # roots of the derivative as the eigenvalues of its companion matrix (as numpy.roots
+        # finds them), all pieces and coordinates at once; a zero leading coefficient (a piece
+        # of lower degree) by numpy.roots, which drops it
+        deg = order - 2
+        deriv = (c[:, 1:, :] * np.arange(1, order, dtype=float)[None, :, None])[:, ::-1, :]
+        flat = np.moveaxis(deriv, 1, -1).reshape(m * dof, deg + 1)  # highest power first
+        roots = np.zeros((m * dof, deg))  # 0: the piece's start, a candidate anyway
+        full = flat[:, 0] != 0.0
+        if full.any():
+            comp = np.zeros((int(full.sum()), deg, deg))
+            comp[:, 0, :] = -flat[full, 1:] / flat[full, :1]
+            comp[:, np.arange(1, deg), np.arange(deg - 1)] = 1.0
+            roots[full] = np.linalg.eigvals(comp).real
+        for row in np.flatnonzero(~full & np.any(flat != 0.0, axis=1)):
+            r = np.roots(flat[row]).real
+            roots[row, : r.size] = r
+        taus += list(np.moveaxis(roots.reshape(m, dof, deg), -1, 0))
+    lo = np.full((m, dof), np.inf)
+    hi = np.full((m, dof), -np.inf)
+    for tau in taus:
+        t = np.clip(np.nan_to_num(np.asarray(tau, dtype=float), nan=0.0), 0.0, h[:, None])
+        val = c[:, -1]
+        for p in range(order - 2, -1, -1):
+            val = val * t + c[:, p]
+        lo = np.minimum(lo, val)
+        hi = np.maximum(hi, val)
+    return lo, hi
+
+
+def _overshoot_pieces(traj: PiecewisePolynomial, limits: MotionLimits) -> Array:
+    """Per piece, whether it leaves the position limits ``(m,)``.
+
+    Exact: from each piece's extremes (:func:`piece_extrema`), beyond a limit by more than the
+    tolerance of the final check; a piece with one of its 48 evenly spaced samples outside a
+    limit at all counts too (the test of earlier versions, kept so that every plan it
+    accepted is planned as before).
+    """
     breaks = traj.breakpoints()
     m = breaks.size - 1
-    if m < 2:
-        return None
+    lo, hi = piece_extrema(traj)
+    out = np.any((lo < limits.lower - _LIMIT_TOL) | (hi > limits.upper + _LIMIT_TOL), axis=1)
     u = np.linspace(0.0, 1.0, _SAMPLES_PER_SEGMENT)
     ts = (breaks[:-1, None] + np.diff(breaks)[:, None] * u[None, :]).reshape(-1)
     q, _, _ = traj.sample_many(ts)
-    out = ((q < limits.lower) | (q > limits.upper)).reshape(m, u.size, -1).any(axis=(1, 2))
-    if not out.any():
+    sampled = ((q < limits.lower) | (q > limits.upper)).reshape(m, u.size, -1).any(axis=(1, 2))
+    return np.asarray(out | sampled)
+
+
+def split_knot(out: npt.ArrayLike) -> int | None:
+    """The inner knot at which to stop a run whose pieces ``out`` leave the limits, if any.
+
+    The end of the first piece that leaves them (its start when it is the last piece): the
+    run is planned again as two runs, at rest at that knot, each split again until no piece
+    leaves. A run of one piece starts and ends at rest and is monotone in every scalar
+    coordinate, so the splitting ends inside the limits.
+    """
+    bad = np.asarray(out, dtype=bool)
+    m = bad.size
+    if m < 2 or not bad.any():
         return None
-    k = int(np.argmax(out))
+    k = int(np.argmax(bad))
     return k + 1 if k + 1 < m else k
+
+
+def _overshoot_knot(traj: PiecewisePolynomial, limits: MotionLimits) -> int | None:
+    """An inner knot next to the first piece that leaves the position limits, if any."""
+    if traj.breakpoints().size < 3:
+        return None
+    return split_knot(_overshoot_pieces(traj, limits))
 
 
 def _spline_run(pts: Array, limits: MotionLimits, kind: Interpolation,

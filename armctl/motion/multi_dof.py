@@ -12,25 +12,31 @@ for an arm of 1-DOF joints; a ball joint turns on the sphere:
   and Shin (:class:`~armctl.motion.quaternion_spline.QuaternionSpline`): the angular velocity
   is continuous through the keyframes. The segment durations are timed near-optimally as for
   1-DOF arms, the ball joint's rates being the norms of its angular velocity and acceleration.
+  A run that leaves a position limit between keyframes (a scalar coordinate, found from its
+  segments' exact extremes, or a ball joint's swing or twist, found by a bound on its spline's
+  angular speed that cannot miss) stops at the keyframe next to it, as a 1-DOF arm's run does.
 """
 
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import numpy.typing as npt
 
 from armctl.errors import PlanningError
+from armctl.kinematics.joint_space import BallJoint
 from armctl.motion.interpolate import (
     Interpolation,
-    _overshoot_knot,
+    _overshoot_pieces,
     _recorded_state,
     _segment_ratios,
     _via_velocities,
     spline_through,
+    split_knot,
 )
-from armctl.motion.layout import GeodesicMove, JointLayout
+from armctl.motion.layout import GeodesicMove, JointLayout, swing_twist_many
 from armctl.motion.limits import MotionLimits
 from armctl.motion.profiles import ruckig_move
 from armctl.motion.quaternion_spline import QuaternionSpline
@@ -41,6 +47,13 @@ __all__ = ["SphereRun", "geodesic_move", "plan_layout_run"]
 
 _MARGIN = 1.01
 _SAMPLES_PER_SEGMENT = 48
+#: How far [rad] a ball joint's swing or twist may pass its limit on the path (that of the
+#: final check of a plan).
+_BALL_TOL = 1e-9
+#: Most intervals the ball-limit test bisects at once before it takes a segment as leaving.
+_MAX_INTERVALS = 20000
+#: Most halvings of one interval (from 1/47 of a segment) before it counts as leaving.
+_MAX_HALVINGS = 60
 
 
 def _layout(limits: MotionLimits) -> JointLayout:
@@ -242,8 +255,14 @@ def plan_layout_run(q: npt.ArrayLike, limits: MotionLimits, kind: Interpolation,
         return _linear_layout_run(pts, limits,
                                   None if durations is None else np.asarray(durations))
     run = _sphere_spline(pts, limits, kind, durations)
-    split = (_overshoot_knot(run.scalar, _scalar_limits(limits))
-             if run.scalar is not None else None)
+    out = np.zeros(len(pts) - 1, dtype=bool)
+    if len(pts) > 2:
+        if run.scalar is not None:
+            out |= _overshoot_pieces(run.scalar, _scalar_limits(limits))
+        for b, spline in zip(lay.balls, run.splines, strict=True):
+            if b.limited:
+                out |= np.array([_ball_leaves(spline, k, b) for k in range(len(pts) - 1)])
+    split = split_knot(out)
     if split is None:
         return run, run.breakpoints()
     first, t1 = plan_layout_run(pts[: split + 1], limits, kind,
@@ -251,6 +270,66 @@ def plan_layout_run(q: npt.ArrayLike, limits: MotionLimits, kind: Interpolation,
     second, t2 = plan_layout_run(pts[split:], limits, kind,
                                  None if durations is None else np.asarray(durations)[split:])
     return Chain([first, second]), np.concatenate([t1, t2[1:] + first.duration])
+
+
+def _ball_leaves(spline: QuaternionSpline, k: int, ball: BallJoint) -> bool:
+    """Whether segment ``k`` of a ball joint's spline turns it outside its swing or twist limits.
+
+    A bound that cannot miss: between two samples the angular speed is at most ``W``
+    (:meth:`QuaternionSpline.speed_bound`, from the spline's control rotations). The swing (the
+    angle of the twist axis from its rest direction) is 1-Lipschitz in the angle turned, so
+    between samples ``a`` and ``b``, ``δ`` apart, it stays below ``(s_a + s_b + W δ) / 2``;
+    the twist ``2 atan2(p, w)`` changes at most at ``W / cos(swing / 2)``
+    (``|(w', p')| <= |q'| = |ω| / 2``), which bounds it the same way with the swing's bound in
+    the cosine. Starting from 48 samples, an interval whose
+    bounds do not prove it inside is halved until they do, a sample is outside, or it is short
+    enough (``W δ / 2`` within the tolerance) that the samples decide. Too many intervals
+    (a path running along its limit) or halvings count as leaving: the run then stops at a
+    keyframe.
+    """
+    t0, t1 = float(spline.times[k]), float(spline.times[k + 1])
+    half = _BALL_TOL / 2.0
+    cone = ball.swing < math.pi
+    twisted = math.isfinite(ball.lower) or math.isfinite(ball.upper)
+
+    def values(ts: Array) -> tuple[Array, Array]:
+        return swing_twist_many(spline(ts), ball.axis)
+
+    ts = np.linspace(t0, t1, _SAMPLES_PER_SEGMENT)
+    sw, tw = values(ts)
+    ta, tb, sa, sb, wa, wb = ts[:-1], ts[1:], sw[:-1], sw[1:], tw[:-1], tw[1:]
+    depth = 0
+    while True:
+        if cone and (np.any(sa > ball.swing + half) or np.any(sb > ball.swing + half)):
+            return True
+        if twisted and (np.any((wa < ball.lower - half) | (wa > ball.upper + half))
+                        or np.any((wb < ball.lower - half) | (wb > ball.upper + half))):
+            return True
+        delta = tb - ta
+        spread = spline.speed_bound(k, (ta - t0) / (t1 - t0), (tb - t0) / (t1 - t0)) * delta
+        s_hi = np.minimum((sa + sb + spread) / 2.0, math.pi)
+        ok = (s_hi <= ball.swing + _BALL_TOL) if cone else np.ones(s_hi.size, dtype=bool)
+        short = spread <= half  # the samples (checked within half the tolerance) decide
+        if twisted:
+            with np.errstate(divide="ignore"):
+                reach = np.where(s_hi < math.pi, spread / np.cos(s_hi / 2.0), np.inf)
+            ok &= ((np.abs(wb - wa) <= reach + 1e-12)
+                   & ((wa + wb + reach) / 2.0 <= ball.upper + _BALL_TOL)
+                   & ((wa + wb - reach) / 2.0 >= ball.lower - _BALL_TOL))
+            short &= reach <= half
+        ok |= short
+        if ok.all():
+            return False
+        keep = ~ok
+        depth += 1
+        if int(keep.sum()) > _MAX_INTERVALS or depth > _MAX_HALVINGS:
+            return True
+        ta, tb, sa, sb, wa, wb = ta[keep], tb[keep], sa[keep], sb[keep], wa[keep], wb[keep]
+        tm = (ta + tb) / 2.0
+        sm, wm = values(tm)
+        ta, tb = np.concatenate([ta, tm]), np.concatenate([tm, tb])
+        sa, sb = np.concatenate([sa, sm]), np.concatenate([sm, sb])
+        wa, wb = np.concatenate([wa, wm]), np.concatenate([wm, wb])
 
 
 def _linear_layout_run(pts: Array, limits: MotionLimits, durations: Array | None,

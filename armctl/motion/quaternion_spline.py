@@ -131,6 +131,31 @@ class QuaternionSpline:
         self._w = np.stack([quat_log(quat_multiply(_conj(a), b))
                             for a, b in ((c0, c1), (c1, c2), (c2, c3))], 1)  # (n-1, 3, 3)
 
+    def speed_bound(self, k: npt.ArrayLike, u0: npt.ArrayLike, u1: npt.ArrayLike) -> Array:
+        """A bound [rad/s] that the angular speed never exceeds on part of a segment.
+
+        The body angular velocity is a sum of turned vectors ``w_i B_i'(u) / h`` (see
+        :meth:`sample`), so its norm is at most ``Σ_i |w_i| |B_i'(u)| / h``. On ``u0 <= u <= u1``
+        ``B1' = 3 (1 - u)^2`` is largest at ``u0``, ``B3' = 3 u^2`` at ``u1`` and
+        ``B2' = 6 u (1 - u)`` at the point of the part nearest to ``u = 1/2``; at an end at rest
+        (``w1`` or ``w3`` zero) the bound falls to zero with the distance to that end.
+
+        Args:
+            k: Segment indices.
+            u0: Start of each part, as a fraction of its segment (0 to 1).
+            u1: End of each part (``u0 <= u1 <= 1``).
+
+        Returns:
+            One bound per part.
+        """
+        seg = np.asarray(k, dtype=np.intp)
+        a, b = np.asarray(u0, dtype=float), np.asarray(u1, dtype=float)
+        norms = np.linalg.norm(self._w[seg], axis=-1)  # (..., 3)
+        mid = np.clip(0.5, a, b)
+        rate = (norms[..., 0] * 3.0 * (1.0 - a) ** 2 + norms[..., 1] * 6.0 * mid * (1.0 - mid)
+                + norms[..., 2] * 3.0 * b**2)
+        return np.asarray(rate / (self.times[seg + 1] - self.times[seg]))
+
     def sample(self, t: npt.ArrayLike) -> tuple[Array, Array, Array]:
         """Rotation, body angular velocity and acceleration at times ``t`` [s].
 
