@@ -277,15 +277,20 @@ def solve(
     start = model.middle() if q0 is None else model.clip(q0)
     opts = options or _DEFAULT_OPTIONS
     if avoid is not None:
-        if tuple(avoid.model.joint_names) != tuple(model.joint_names):
-            raise InputError(f"avoid: the collision checker was built for arm "
-                             f"{avoid.model.name!r}, whose joints differ from those of "
-                             f"{model.name!r}; use CollisionModel.of(arm) of the arm solved")
-        opts = replace(opts, avoid=avoid)
+        opts = _with_checker(model, opts, avoid)
     return fn(model, goals, start, opts, tuple(constraints))
 
 
 _DEFAULT_OPTIONS = IKOptions()  # frozen: one instance serves every call without options
+
+
+def _with_checker(model: KinematicModel, opts: IKOptions, avoid: CollisionModel) -> IKOptions:
+    """``opts`` with the collision checker ``avoid``, refused when built for another arm."""
+    if tuple(avoid.model.joint_names) != tuple(model.joint_names):
+        raise InputError(f"avoid: the collision checker was built for arm "
+                         f"{avoid.model.name!r}, whose joints differ from those of "
+                         f"{model.name!r}; use CollisionModel.of(arm) of the arm solved")
+    return replace(opts, avoid=avoid)
 
 
 def _solve_multi_dof(model: KinematicModel, goal: GoalLike, q0: npt.ArrayLike | None,
@@ -309,11 +314,7 @@ def _solve_multi_dof(model: KinematicModel, goal: GoalLike, q0: npt.ArrayLike | 
             f"arm {model.name!r} has the multi-DOF joint(s) {joints}: the solver {solver!r} "
             f"supports 1-DOF joints only. Use nlp or one of {', '.join(sorted(TANGENT_METHODS))}.")
     if avoid is not None:
-        if tuple(avoid.model.joint_names) != tuple(model.joint_names):
-            raise InputError(f"avoid: the collision checker was built for arm "
-                             f"{avoid.model.name!r}, whose joints differ from those of "
-                             f"{model.name!r}; use CollisionModel.of(arm) of the arm solved")
-        opts = replace(opts, avoid=avoid)
+        opts = _with_checker(model, opts, avoid)
     goals = as_goals(goal)
     for g in goals:
         model.frame_index(g.frame)

@@ -384,35 +384,18 @@ def test_universal_joints_alone_take_the_compiled_line(tmp_path: Path) -> None:
 
 
 # ---- the figure with ball shoulders and hips --------------------------------------------------
-#: The figure's ball joints as three revolute axes meeting in one point: (axis, range [deg])
-THREE_AXES = {
-    "shoulder": (([1, 0, 0], (-95, 100)), ([0, 0, 1], (-100, 100)), ([0, 1, 0], (-90, 90))),
-    "hip": (([0, 1, 0], (-120, 30)), ([1, 0, 0], (-45, 45)), ([0, 0, 1], (-45, 45))),
-}
-
-
 def _three_axis_figure(folder: Path) -> Path:
-    """The bundled figure with each ball shoulder and hip written as three revolute axes."""
-    doc = yaml.safe_load(FIGURE.read_text(encoding="utf-8"))
-    joints = []
-    for j in doc["joints"]:
-        if j["type"] != "ball":
-            joints.append(j)
-            continue
-        kind = "shoulder" if "shoulder" in j["name"] else "hip"
-        parent = j["parent"]
-        for k, (axis, (lo, hi)) in enumerate(THREE_AXES[kind], start=1):
-            child = j["child"] if k == 3 else f"{j['name']}__{k}"
-            joints.append({"name": f"{j['name']}_{k}", "type": "revolute", "parent": parent,
-                           "child": child, "axis": axis,
-                           "limits": {"lower": f"{lo} deg", "upper": f"{hi} deg"},
-                           **({"origin": j["origin"]} if k == 1 else {})})
-            parent = child
-    doc["joints"] = joints
-    for key in ("poses", "collision", "skin"):
-        doc.pop(key, None)
-    out = folder / "figure_three_axes.yaml"
-    out.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    """The bundled figure with each ball joint as three revolute axes (the benchmark's twin)."""
+    import importlib.util
+    import sys
+
+    tools = Path(__file__).resolve().parents[2] / "tools"
+    sys.path.insert(0, str(tools))  # the tool imports its neighbour _benchdoc
+    spec = importlib.util.spec_from_file_location("bench_ball_ik", tools / "bench_ball_ik.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out: Path = module.three_axis_twin(folder)
     return out
 
 
