@@ -167,11 +167,14 @@ def stuck_at_singularity(model: KinematicModel, goals: Sequence[Goal], q: Array,
         return None
     scale = np.where(_prismatic(model), model.tree.max_reach, 1.0)
     q0 = np.array(q, dtype=float)
-    for k in range(r):
-        if s[k] >= SINGULAR_THRESHOLD:
-            continue
+    lost = [vt[k] for k in range(r) if s[k] < SINGULAR_THRESHOLD]
+    if model.multi_dof_joints:
+        # a ball joint leaves a null space of many dimensions, in which the SVD's choice of
+        # a lost direction is arbitrary: probe a basis of the whole null space too
+        lost += list(np.linalg.svd(jac, full_matrices=True)[2][len(s):])
+    for direction in lost:
         for sign in (1.0, -1.0):
-            step = sign * PROBE_STEP * vt[k] * scale
+            step = sign * PROBE_STEP * direction * scale
             probe = (model.clip(model.integrate(q0, step)) if model.multi_dof_joints
                      else np.clip(q0 + step, model.lower, model.upper))
             if _evaluate(model, ga, probe, False)[0] < energy * (1.0 - _PROBE_GAIN):
