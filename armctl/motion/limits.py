@@ -146,12 +146,7 @@ class MotionLimits:
         if layout is not None:
             return cls._of_layout(model, layout)
         prismatic = np.array([t is JointType.PRISMATIC for t in model.joint_types])
-        vdef = np.where(prismatic, DEFAULT_VELOCITY["prismatic"], DEFAULT_VELOCITY["rotary"])
-        adef = np.where(prismatic, DEFAULT_ACCELERATION["prismatic"],
-                        DEFAULT_ACCELERATION["rotary"])
-        v = np.where(np.isfinite(model.velocity_limits), model.velocity_limits, vdef)
-        a = np.where(np.isfinite(model.acceleration_limits), model.acceleration_limits, adef)
-        j = np.where(np.isfinite(model.jerk_limits), model.jerk_limits, np.inf)
+        v, a, j = _rate_limits(model, prismatic)
         return cls(tuple(model.joint_names), np.array(model.lower, dtype=float),
                    np.array(model.upper, dtype=float), v, a, j,
                    tuple("m" if p else "rad" for p in prismatic))
@@ -167,12 +162,7 @@ class MotionLimits:
                 if model.joint_types[i] is JointType.PRISMATIC:
                     v_units[k] = "m"
         prismatic = np.array([u == "m" for u in v_units])
-        vdef = np.where(prismatic, DEFAULT_VELOCITY["prismatic"], DEFAULT_VELOCITY["rotary"])
-        adef = np.where(prismatic, DEFAULT_ACCELERATION["prismatic"],
-                        DEFAULT_ACCELERATION["rotary"])
-        v = np.where(np.isfinite(model.velocity_limits), model.velocity_limits, vdef)
-        a = np.where(np.isfinite(model.acceleration_limits), model.acceleration_limits, adef)
-        j = np.where(np.isfinite(model.jerk_limits), model.jerk_limits, np.inf)
+        v, a, j = _rate_limits(model, prismatic)
         return cls(tuple(names), np.array(model.lower, dtype=float),
                    np.array(model.upper, dtype=float), v, a, j, tuple(v_units), layout)
 
@@ -389,3 +379,18 @@ def _check_layout(traj: Trajectory, limits: MotionLimits, layout: JointLayout, t
                                          float(bound), start, _POSITION_HINT,
                                          layout.q_units[i])
     return int(ts.size)
+
+
+def _rate_limits(model: KinematicModel, prismatic: Array) -> tuple[Array, Array, Array]:
+    """Velocity, acceleration and jerk limits per velocity entry, defaults where none is given.
+
+    Args:
+        model: The arm.
+        prismatic: Which velocity entries belong to prismatic joints.
+    """
+    vdef = np.where(prismatic, DEFAULT_VELOCITY["prismatic"], DEFAULT_VELOCITY["rotary"])
+    adef = np.where(prismatic, DEFAULT_ACCELERATION["prismatic"], DEFAULT_ACCELERATION["rotary"])
+    v = np.where(np.isfinite(model.velocity_limits), model.velocity_limits, vdef)
+    a = np.where(np.isfinite(model.acceleration_limits), model.acceleration_limits, adef)
+    j = np.where(np.isfinite(model.jerk_limits), model.jerk_limits, np.inf)
+    return v, a, j

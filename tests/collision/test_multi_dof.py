@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from chain_truth import by_name, chain_poses, origin
 from scipy.spatial.transform import Rotation
 
 from armctl.collision import CollisionModel, generate_allowed
@@ -46,52 +47,6 @@ ARM = Path(__file__).with_name("multi_dof_arm.yaml")
 FIGURE = bundled_configs_dir() / "figure.yaml"
 
 
-# ---- an independent chain of matrices ---------------------------------------------------------
-def _origin(o: dict | None) -> np.ndarray:
-    o = o or {}
-    t = np.eye(4)
-    t[:3, 3] = o.get("xyz", [0, 0, 0])
-    t[:3, :3] = Rotation.from_euler("xyz", o.get("rpy", [0, 0, 0])).as_matrix()
-    return t
-
-
-def _motion(j: dict, value: np.ndarray) -> np.ndarray:
-    m = np.eye(4)
-    kind = j.get("type", "revolute")
-    if kind == "ball":
-        w, x, y, z = value
-        m[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
-    elif kind == "universal":
-        a1, a2 = (np.asarray(a, float) for a in j.get("axes", [[1, 0, 0], [0, 1, 0]]))
-        m[:3, :3] = (Rotation.from_rotvec(a1 * value[0])
-                     * Rotation.from_rotvec(a2 * value[1])).as_matrix()
-    elif kind in ("revolute", "continuous"):
-        m[:3, :3] = Rotation.from_rotvec(np.asarray(j["axis"], float) * value[0]).as_matrix()
-    elif kind == "prismatic":
-        m[:3, 3] = np.asarray(j["axis"], float) * value[0]
-    return m
-
-
-def chain_poses(doc: dict, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Every link's pose from the arm file's origins and axes; ``values`` per moving joint."""
-    poses = {doc["base"]: np.eye(4)}
-    pending = list(doc["joints"])
-    while pending:
-        j = pending.pop(0)
-        if j["parent"] not in poses:
-            pending.append(j)
-            continue
-        t = poses[j["parent"]] @ _origin(j.get("origin"))
-        if j.get("type") != "fixed":
-            t = t @ _motion(j, np.atleast_1d(values[j["name"]]))
-        poses[j["child"]] = t
-    return poses
-
-
-def _values(model: KinematicModel, q: np.ndarray) -> dict[str, np.ndarray]:
-    return {name: q[model.q_index(name)] for name in model.joint_names}
-
-
 # ---- coal, posed by the chain -----------------------------------------------------------------
 def _transform(t: np.ndarray):
     return coal.Transform3s(np.ascontiguousarray(t[:3, :3]), np.ascontiguousarray(t[:3, 3]))
@@ -109,7 +64,7 @@ def _capsule_geometry(a: np.ndarray, b: np.ndarray, radius: float):
 
 
 def _obstacle_geometry(ob: dict):
-    t = _origin(ob.get("origin"))
+    t = origin(ob.get("origin"))
     if ob["shape"] == "box":
         return coal.Box(*[float(v) for v in ob["size"]]), t
     if ob["shape"] == "sphere":
@@ -129,7 +84,7 @@ def _coal_distance(ga, ta: np.ndarray, gb, tb: np.ndarray) -> float:
 def truth_distances(cm: CollisionModel, doc: dict, q: np.ndarray) -> np.ndarray:
     """Per checked pair of ``cm`` its distance [m]: coal (links, obstacles) or by hand (table)."""
     model = cm.model
-    poses = chain_poses(doc, _values(model, q))
+    poses = chain_poses(doc, by_name(model, q))
     caps = [(link, c) for link, cs in collision_capsules(model.spec).items() for c in cs]
     world = []
     for link, c in caps:
@@ -214,7 +169,7 @@ def test_link_poses_are_the_kinematics_and_an_independent_chain(
         C = np.empty((K.CW, len(caps)))
         place(q, f, i, T, C)
         frames = arm.fk_frames(q)
-        chain = chain_poses(doc, _values(arm, q))
+        chain = chain_poses(doc, by_name(arm, q))
         for j, name in enumerate(arm.joint_names):
             child = arm.spec.joint(name).child
             np.testing.assert_array_equal(T[j].reshape(3, 4),
@@ -537,7 +492,7 @@ def test_an_arm_lying_on_the_table_may_rise_through_its_ball_joint(arm: Kinemati
 # ---- the exact narrow phase -------------------------------------------------------------------
 def _shape_geometry(shape: dict, pose: np.ndarray):
     """A link or obstacle shape of the arm file in coal, its pose, and its lowest z [m]."""
-    t = pose @ _origin(shape.get("origin"))
+    t = pose @ origin(shape.get("origin"))
     kind = shape["shape"]
     z = t[:3, 2]
     if kind == "box":
@@ -556,7 +511,7 @@ def _shape_geometry(shape: dict, pose: np.ndarray):
 
 def shape_distances(cm: CollisionModel, doc: dict, q: np.ndarray) -> dict[frozenset, float]:
     """Per checked pair of names, the least distance between their real shapes [m]."""
-    poses = chain_poses(doc, _values(cm.model, q))
+    poses = chain_poses(doc, by_name(cm.model, q))
     links = {lk["name"]: [_shape_geometry(s, poses[lk["name"]]) for s in lk["collision"]]
              for lk in doc["links"]}
     obstacles = {ob["name"]: _shape_geometry(ob, np.eye(4))

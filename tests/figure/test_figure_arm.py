@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from figure_chain import by_name, chain_poses
+from chain_truth import by_name, chain_poses
 from PIL import Image
 from scipy.spatial.transform import Rotation
 

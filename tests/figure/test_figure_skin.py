@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from figure_chain import by_name, chain_poses
+from chain_truth import by_name, chain_poses
 from scipy.spatial.transform import Rotation
 
 from armctl.config import bundled_configs_dir, load_spec

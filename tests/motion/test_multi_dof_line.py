@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from chain_truth import by_name, chain_poses
 from scipy.spatial.transform import Rotation, Slerp
 
 import armctl
@@ -37,34 +38,9 @@ def doc() -> dict:
     return yaml.safe_load(BALL_ARM.read_text())
 
 
-def _origin(o: dict | None) -> np.ndarray:
-    o = o or {}
-    t = np.eye(4)
-    t[:3, 3] = o.get("xyz", [0, 0, 0])
-    t[:3, :3] = Rotation.from_euler("xyz", o.get("rpy", [0, 0, 0])).as_matrix()
-    return t
-
-
 def tool_poses(doc: dict, arm: armctl.Arm, qs: np.ndarray) -> np.ndarray:
     """The tool's poses ``(n, 4, 4)``: the arm file's chain of joints, multiplied with scipy."""
-    out = np.empty((len(qs), 4, 4))
-    tcp = next(f for f in doc["frames"] if f["name"] == doc["tool"])
-    for k, q in enumerate(qs):
-        poses = {doc["base"]: np.eye(4)}
-        for j in doc["joints"]:  # the file lists parents first
-            m = np.eye(4)
-            v = q[arm.q_index(j["name"])]
-            if j["type"] == "ball":
-                m[:3, :3] = Rotation.from_quat(np.roll(v, -1)).as_matrix()
-            elif j["type"] == "universal":
-                a1, a2 = (np.asarray(a, float) for a in j["axes"])
-                m[:3, :3] = (Rotation.from_rotvec(a1 * v[0])
-                             * Rotation.from_rotvec(a2 * v[1])).as_matrix()
-            else:
-                m[:3, :3] = Rotation.from_rotvec(np.asarray(j["axis"], float) * v[0]).as_matrix()
-            poses[j["child"]] = poses[j["parent"]] @ _origin(j.get("origin")) @ m
-        out[k] = poses[tcp["parent"]] @ _origin(tcp.get("origin"))
-    return out
+    return np.array([chain_poses(doc, by_name(arm, q))[doc["tool"]] for q in qs])
 
 
 def _samples(plan: object) -> tuple[np.ndarray, np.ndarray]:
